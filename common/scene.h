@@ -1,0 +1,139 @@
+/* scene.h — the scene as a plain struct (DESIGN section 4).
+ *
+ * A scene file is YAML in SI units. It is parsed once, schema-checked by
+ * libcyaml, validated (ranges, consistency) and then handed to the components
+ * as this struct: physics never sees text. Optional groups are flagged by
+ * has_* members. Lattice units are derived elsewhere (common/units.h), in one
+ * place. Every string the scene owns is freed by scene_free. */
+#ifndef COMMON_SCENE_H
+#define COMMON_SCENE_H
+
+#include "status.h"
+
+#include <stddef.h>
+
+typedef enum {
+    FACE_PERIODIC,
+    FACE_NO_SLIP,
+    FACE_FREE_SLIP,
+    FACE_MOVING_WALL,
+    FACE_VELOCITY_INLET,
+    FACE_PRESSURE_OUTLET,
+} face_type_t;
+
+typedef enum { PROFILE_UNIFORM, PROFILE_PARABOLIC } inlet_profile_t;
+
+/* Face order everywhere: x_min, x_max, y_min, y_max, z_min, z_max (= 2*axis + side). */
+typedef struct {
+    face_type_t type;
+    double velocity[3];      /* moving_wall: wall velocity; velocity_inlet: mean (uniform) or peak (parabolic) velocity, m/s */
+    inlet_profile_t profile; /* velocity_inlet only */
+    double pressure;         /* pressure_outlet: pressure relative to the reference pressure, Pa */
+} face_t;
+
+typedef enum { COLLISION_BGK, COLLISION_TRT } collision_t;
+typedef enum { BOUNDARY_BOUNCE_BACK, BOUNDARY_YU, BOUNDARY_CLI, BOUNDARY_QUADRATIC } boundary_scheme_t;
+typedef enum { REFILL_EQUILIBRIUM, REFILL_EXTRAPOLATION } refill_t;
+typedef enum { FORCE_MOMENTUM_EXCHANGE, FORCE_GALILEAN } force_method_t;
+
+typedef struct {
+    double size[3]; /* m */
+    face_t faces[6];
+} scene_domain_t;
+
+typedef struct {
+    double density;             /* kg/m^3 */
+    double viscosity;           /* kinematic, m^2/s */
+    double dx;                  /* m; derived from cells_per_radius when that is given */
+    double cells_per_radius;    /* 0 when dx is given */
+    double tau;                 /* relaxation time; derived from dt when that is given */
+    double dt;                  /* s; derived from tau when tau is given */
+    collision_t collision;
+    double magic;               /* TRT magic parameter Lambda */
+    double body_force[3];       /* force per volume, N/m^3 */
+    double initial_velocity[3]; /* m/s */
+    boundary_scheme_t boundary_scheme;
+    refill_t refill;
+    force_method_t force_method;
+    int force_averaging;        /* average force over two steps */
+} scene_fluid_t;
+
+typedef enum { MOTION_FREE, MOTION_FIXED, MOTION_PRESCRIBED } motion_t;
+
+typedef struct {
+    double center[3]; /* m */
+    double radius;    /* m */
+} scene_sphere_t;
+
+typedef struct {
+    char *name;
+    int nspheres;
+    scene_sphere_t *spheres;
+    double density;             /* kg/m^3 */
+    double velocity[3];         /* initial (free) or prescribed (prescribed), m/s */
+    double angular_velocity[3]; /* rad/s, same meaning */
+    motion_t motion;
+} scene_body_t;
+
+typedef struct {
+    int a, b;                                   /* global sphere indices (bodies in order, spheres in order) */
+    double max_normal, max_shear, max_torque;   /* N, N, N m; infinity when not given */
+} scene_connection_t;
+
+typedef enum { CONTACT_NONE, CONTACT_SPRING_DASHPOT, CONTACT_HERTZ } contact_model_t;
+
+typedef struct {
+    contact_model_t model;
+    double restitution;   /* (0, 1] */
+    double contact_time;  /* s */
+    double friction;      /* Coulomb coefficient, 0 = off */
+    double young_modulus; /* Pa, Hertz */
+    double poisson_ratio; /* Hertz */
+    double stick_speed;   /* m/s, 0 = never stick */
+} scene_contacts_t;
+
+typedef enum { INTEGRATOR_VERLET, INTEGRATOR_CVODE } integrator_t;
+typedef enum { CVODE_ADAMS, CVODE_BDF } cvode_method_t;
+typedef enum { LINSOL_DENSE, LINSOL_SPGMR } linsol_t;
+
+typedef struct {
+    integrator_t integrator;
+    cvode_method_t cvode_method;
+    linsol_t linear_solver;
+    double rtol, atol;
+    int substeps;
+    double gravity[3]; /* m/s^2 */
+} scene_rigid_t;
+
+typedef struct {
+    double end_time;        /* s */
+    double output_interval; /* s */
+    int fields;             /* write field snapshots */
+    double field_interval;  /* s; output_interval when not given */
+} scene_run_t;
+
+typedef struct {
+    char *path;  /* file the scene came from */
+    char *text;  /* the scene text after --set overrides (stored in the output) */
+    scene_domain_t domain;
+    scene_fluid_t fluid;
+    int nbodies;
+    scene_body_t *bodies;
+    int nconnections;
+    scene_connection_t *connections;
+    scene_contacts_t contacts;
+    scene_rigid_t rigid;
+    scene_run_t run;
+} scene_t;
+
+/* Loads, schema-checks, applies the "dotted.key=value" overrides in order,
+ * and validates. On failure every message names the file, the key, the value
+ * and the allowed range; *out is NULL and nothing else is touched. */
+status_t scene_load(const char *path, const char *const *overrides, int noverrides, const log_t *log,
+                    scene_t **out);
+void scene_free(scene_t *s);
+
+int scene_total_spheres(const scene_t *s);
+const char *face_type_name(face_type_t t);
+
+#endif

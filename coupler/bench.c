@@ -1,0 +1,165 @@
+/* bench.c — measures, in one run, the machine's memory bandwidth and the
+ * fluid step's speed, and relates them.
+ *
+ * Bandwidth: a copy b[i] = a[i] over arrays far larger than the caches, with
+ * non-temporal stores (no read-for-ownership), so each element costs one
+ * 8-byte read and one 8-byte write of DRAM traffic; best of several repeats.
+ * Fluid: a periodic cube, the whole step (boundary stage + fused kernel).
+ * A two-array D3Q19 step must move at least 19 loads + 19 stores of a double
+ * per cell, 304 bytes, so the bandwidth limit is B / 304 cell updates per
+ * second; the ratio printed is MLUPS / that limit. */
+#include "bench.h"
+
+#include "../common/scene.h"
+#include "../fluid/fluid.h"
+#include "../fluid/lattice.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
+#define BYTES_PER_UPDATE (2.0 * LB_Q * sizeof(double))
+
+static double stream_bandwidth(int threads)
+{
+    const size_t n = (size_t)1 << 26; /* 512 MiB per array */
+    double *a = aligned_alloc(64, n * sizeof(double)), *b = aligned_alloc(64, n * sizeof(double));
+    if (a == NULL || b == NULL) {
+        free(a);
+        free(b);
+        return 0.0;
+    }
+    omp_set_num_threads(threads);
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+        a[i] = (double)i;
+        b[i] = 0.0;
+    }
+    double best = 0.0;
+    for (int rep = 0; rep < 6; rep++) {
+        const double t0 = omp_get_wtime();
+#pragma omp parallel
+        {
+#pragma omp for schedule(static) nowait
+            for (size_t i = 0; i < n; i += 8) {
+#if defined(__AVX__)
+                _mm256_stream_pd(b + i, _mm256_load_pd(a + i));
+                _mm256_stream_pd(b + i + 4, _mm256_load_pd(a + i + 4));
+#elif defined(__SSE2__)
+                for (int k = 0; k < 8; k += 2) {
+                    _mm_stream_pd(b + i + k, _mm_load_pd(a + i + k));
+                }
+#else
+                for (int k = 0; k < 8; k++) {
+                    b[i + k] = a[i + k];
+                }
+#endif
+            }
+#if defined(__SSE2__)
+            _mm_sfence();
+#endif
+        }
+        const double dt = omp_get_wtime() - t0;
+        const double gbs = 2.0 * (double)n * sizeof(double) / dt / 1e9;
+        if (rep > 0 && gbs > best) {
+            best = gbs;
+        }
+    }
+    volatile double sink = b[n / 2];
+    (void)sink;
+    free(a);
+    free(b);
+    return best;
+}
+
+static double fluid_mlups(int size, int threads)
+{
+    omp_set_num_threads(threads);
+    scene_t s;
+    memset(&s, 0, sizeof s);
+    s.path = "bench";
+    for (int a = 0; a < 3; a++) {
+        s.domain.size[a] = size;
+        s.domain.faces[2 * a].type = s.domain.faces[2 * a + 1].type = FACE_PERIODIC;
+    }
+    s.fluid.density = 1.0;
+    s.fluid.dx = 1.0;
+    s.fluid.tau = 0.8;
+    s.fluid.viscosity = 0.1;
+    s.fluid.collision = COLLISION_TRT;
+    s.fluid.magic = 3.0 / 16.0;
+    s.fluid.initial_velocity[0] = 0.01;
+    s.fluid.body_force[2] = 1e-7;
+    log_t log = {log_stderr, NULL};
+    fluid_t *fl = NULL;
+    if (fluid_create(&s, &log, &fl) != STATUS_OK) {
+        return 0.0;
+    }
+    for (int i = 0; i < 3; i++) {
+        fluid_step(fl);
+    }
+    const double cells = (double)size * size * size;
+    double best = 0.0, total = 0.0;
+    for (int rep = 0; rep < 5 || total < 2.0; rep++) {
+        const int steps = (int)fmax(1.0, 2e7 / cells);
+        const double t0 = omp_get_wtime();
+        for (int i = 0; i < steps; i++) {
+            fluid_step(fl);
+        }
+        const double dt = omp_get_wtime() - t0;
+        total += dt;
+        best = fmax(best, cells * steps / dt / 1e6);
+        if (rep > 20) {
+            break;
+        }
+    }
+    fluid_free(fl);
+    return best;
+}
+
+int bench_main(const int *sizes, int nsizes, int json)
+{
+    static const int default_size = 128;
+    if (nsizes == 0) {
+        sizes = &default_size;
+        nsizes = 1;
+    }
+    const int maxthreads = omp_get_max_threads();
+    int tcounts[2] = {1, maxthreads};
+    const int ntc = maxthreads > 1 ? 2 : 1;
+    double bw[2];
+    for (int t = 0; t < ntc; t++) {
+        bw[t] = stream_bandwidth(tcounts[t]);
+        if (!json) {
+            printf("memory bandwidth, %d thread%s (copy, non-temporal stores): %.2f GB/s\n", tcounts[t],
+                   tcounts[t] > 1 ? "s" : "", bw[t]);
+        }
+    }
+    if (!json) {
+        printf("%6s %7s %9s %9s %8s %10s %12s %7s\n", "size", "threads", "precision", "streaming", "MLUPS",
+               "BW GB/s", "limit MLUPS", "ratio");
+    }
+    for (int k = 0; k < nsizes; k++) {
+        for (int t = 0; t < ntc; t++) {
+            const double m = fluid_mlups(sizes[k], tcounts[t]);
+            const double limit = bw[t] * 1e9 / BYTES_PER_UPDATE / 1e6;
+            const double ratio = limit > 0.0 ? m / limit : 0.0;
+            if (json) {
+                printf("{\"size\": %d, \"threads\": %d, \"precision\": \"double\", \"streaming\": \"pull\", "
+                       "\"mlups\": %.3f, \"bandwidth_gbs\": %.3f, \"limit_mlups\": %.3f, \"ratio\": %.4f}\n",
+                       sizes[k], tcounts[t], m, bw[t], limit, ratio);
+            } else {
+                printf("%6d %7d %9s %9s %8.2f %10.2f %12.2f %7.3f\n", sizes[k], tcounts[t], "double", "pull", m,
+                       bw[t], limit, ratio);
+            }
+            fflush(stdout);
+        }
+    }
+    omp_set_num_threads(maxthreads);
+    return 0;
+}

@@ -1,0 +1,181 @@
+/* main.c — the `coupler` command line (DESIGN section 3).
+ *
+ *   coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]
+ *   coupler check SCENE.yaml [--set KEY=VALUE]...
+ *   coupler bench [--size N]... [--json]
+ *
+ * Only this file decides exit codes: 0 success, 1 a failed run or invalid
+ * scene, 2 a usage error. Messages go to stderr through the log sink. */
+#include "../common/scene.h"
+#include "../fluid/units.h"
+#include "bench.h"
+#include "run.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_SETS 256
+#define MAX_SIZES 16
+
+static int usage(const char *msg)
+{
+    if (msg != NULL) {
+        fprintf(stderr, "coupler: %s\n", msg);
+    }
+    fprintf(stderr, "usage:\n"
+                    "  coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]\n"
+                    "  coupler check SCENE.yaml [--set KEY=VALUE]...\n"
+                    "  coupler bench [--size N]... [--json]\n");
+    return 2;
+}
+
+static int parse_long(const char *opt, const char *s, long lo, long hi, long *out)
+{
+    char *end;
+    errno = 0;
+    const long v = strtol(s, &end, 10);
+    if (errno != 0 || end == s || *end != '\0' || v < lo || v > hi) {
+        fprintf(stderr, "coupler: %s takes a whole number from %ld to %ld, got '%s'\n", opt, lo, hi, s);
+        return 0;
+    }
+    *out = v;
+    return 1;
+}
+
+/* Default output: the scene's file name with .h5 in the current folder. */
+static void default_output(const char *scene, char *buf, size_t n)
+{
+    const char *base = strrchr(scene, '/') ? strrchr(scene, '/') + 1 : scene;
+    snprintf(buf, n, "%s", base);
+    char *dot = strrchr(buf, '.');
+    if (dot != NULL) {
+        *dot = '\0';
+    }
+    strncat(buf, ".h5", n - strlen(buf) - 1);
+}
+
+static int cmd_check(const scene_t *s, const log_t *log)
+{
+    units_t u;
+    if (units_derive(s, log, &u) != STATUS_OK) {
+        return 1;
+    }
+    units_assessment_t a;
+    units_assess(s, &u, log, &a);
+    printf("%s\n", s->path);
+    printf("  grid               %d x %d x %d cells (%.4g M)\n", u.n[0], u.n[1], u.n[2],
+           (double)u.n[0] * u.n[1] * u.n[2] / 1e6);
+    printf("  dx                 %.6g m\n", u.dx);
+    printf("  dt                 %.6g s\n", u.dt);
+    printf("  tau                %.6g (%s)\n", u.tau, s->fluid.collision == COLLISION_TRT ? "TRT" : "BGK");
+    if (s->fluid.collision == COLLISION_TRT) {
+        printf("  magic parameter    %.6g (omega- = %.6g)\n", s->fluid.magic, u.omega_minus);
+    }
+    printf("  lattice viscosity  %.6g\n", u.nu_lat);
+    printf("  body force         %.6g %.6g %.6g (lattice)\n", u.force_lat[0], u.force_lat[1], u.force_lat[2]);
+    printf("  largest velocity   %.6g m/s (%s)\n", a.u_max, a.u_source);
+    printf("  Mach               %.4g\n", a.mach);
+    printf("  Reynolds           %.4g (length %.4g m: %s)\n", a.reynolds, a.length, a.length_source);
+    if (a.radius_cells > 0.0) {
+        printf("  sphere radius      %.4g cells (smallest)\n", a.radius_cells);
+    }
+    printf("  steps              %ld to t = %.6g s\n", a.steps, s->run.end_time);
+    printf("  memory             %.4g MB (%.0f bytes per cell)\n", a.bytes / 1e6, units_bytes_per_cell());
+    printf("  warnings           %d\n", a.nwarnings);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        return usage(NULL);
+    }
+    const char *cmd = argv[1];
+    log_t log = {log_stderr, NULL};
+    if (strcmp(cmd, "-h") == 0 || strcmp(cmd, "--help") == 0) {
+        usage(NULL);
+        return 0;
+    }
+    if (strcmp(cmd, "bench") == 0) {
+        int sizes[MAX_SIZES], nsizes = 0, json = 0;
+        for (int i = 2; i < argc; i++) {
+            long v;
+            if (strcmp(argv[i], "--json") == 0) {
+                json = 1;
+            } else if (strcmp(argv[i], "--size") == 0 && i + 1 < argc) {
+                if (!parse_long("--size", argv[++i], 8, 1024, &v)) {
+                    return 2;
+                }
+                if (nsizes == MAX_SIZES) {
+                    return usage("at most 16 --size options");
+                }
+                sizes[nsizes++] = (int)v;
+            } else {
+                fprintf(stderr, "coupler bench: unknown or incomplete option '%s'\n", argv[i]);
+                return usage(NULL);
+            }
+        }
+        return bench_main(sizes, nsizes, json);
+    }
+    if (strcmp(cmd, "run") != 0 && strcmp(cmd, "check") != 0) {
+        fprintf(stderr, "coupler: unknown command '%s'\n", cmd);
+        return usage(NULL);
+    }
+    const char *scene_path = NULL, *output = NULL;
+    const char *sets[MAX_SETS];
+    int nsets = 0, quiet = 0;
+    long steps = 0;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        const int has_value = i + 1 < argc;
+        if (strcmp(a, "--set") == 0 && has_value) {
+            if (nsets == MAX_SETS) {
+                return usage("at most 256 --set options");
+            }
+            sets[nsets++] = argv[++i];
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "-o") == 0 && has_value) {
+            output = argv[++i];
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--steps") == 0 && has_value) {
+            if (!parse_long("--steps", argv[++i], 0, LONG_MAX / 2, &steps)) {
+                return 2;
+            }
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--quiet") == 0) {
+            quiet = 1;
+        } else if (a[0] == '-' || scene_path != NULL) {
+            fprintf(stderr, "coupler %s: unknown, incomplete or extra argument '%s'\n", cmd, a);
+            return usage(NULL);
+        } else {
+            scene_path = a;
+        }
+    }
+    if (scene_path == NULL) {
+        return usage("a scene file is required");
+    }
+    for (int k = 0; k < nsets; k++) {
+        if (strchr(sets[k], '=') == NULL) {
+            fprintf(stderr, "coupler: --set takes KEY=VALUE, got '%s'\n", sets[k]);
+            return 2;
+        }
+    }
+    scene_t *scene = NULL;
+    if (scene_load(scene_path, sets, nsets, &log, &scene) != STATUS_OK) {
+        return 1;
+    }
+    int rc;
+    if (strcmp(cmd, "check") == 0) {
+        rc = cmd_check(scene, &log);
+    } else {
+        char buf[4096];
+        if (output == NULL) {
+            default_output(scene_path, buf, sizeof buf);
+            output = buf;
+        }
+        run_options_t opt = {output, steps, quiet};
+        rc = run_scene(scene, &opt, &log);
+    }
+    scene_free(scene);
+    return rc;
+}

@@ -1,0 +1,307 @@
+/* fluid.c — the fluid component: creation, the time step, fields, checks.
+ *
+ * A step is the algorithm in two named stages: the boundary stage fills the
+ * ghost slots that interior cells pull from (walls.c), then the fused kernel
+ * pulls, collides and writes the other population array (kernel.c); the
+ * arrays swap. Populations are SoA with one ghost layer (grid.h). */
+#include "fluid_internal.h"
+
+#include "lattice.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static double *alloc_populations(const grid_t *g)
+{
+    size_t bytes = (size_t)LB_Q * g->ncells * sizeof(double);
+    bytes = (bytes + 63) / 64 * 64;
+    return aligned_alloc(64, bytes);
+}
+
+/* Equilibrium everywhere (ghosts too), written in the kernel's row order so
+ * that first touch puts pages near the thread that streams them. */
+static void init_uniform(fluid_t *fl, double rho, const double u[3])
+{
+    const grid_t *g = &fl->g;
+    double feq[LB_Q];
+    for (int q = 0; q < LB_Q; q++) {
+        feq[q] = lb_feq(q, rho, u[0], u[1], u[2]);
+    }
+    const size_t N = g->ncells;
+    const size_t plane = (size_t)g->s[0] * (size_t)g->s[1];
+    for (int k = 0; k < 2; k++) {
+        double *f = fl->f[k];
+#pragma omp parallel for schedule(static)
+        for (int z = 0; z < g->s[2]; z++) {
+            for (int q = 0; q < LB_Q; q++) {
+                double *p = f + (size_t)q * N + (size_t)z * plane;
+                for (size_t i = 0; i < plane; i++) {
+                    p[i] = feq[q];
+                }
+            }
+        }
+    }
+}
+
+status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
+{
+    *out = NULL;
+    fluid_t *fl = calloc(1, sizeof *fl);
+    if (fl == NULL) {
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory");
+    }
+    if (log != NULL) {
+        fl->log = *log;
+    }
+    status_t st = units_derive(scene, log, &fl->units);
+    if (st != STATUS_OK) {
+        free(fl);
+        return st;
+    }
+    grid_init(&fl->g, fl->units.n);
+    fl->kp.omega_plus = fl->units.omega_plus;
+    fl->kp.omega_minus = fl->units.omega_minus;
+    memcpy(fl->kp.force, fl->units.force_lat, sizeof fl->kp.force);
+    fl->path = strdup(scene->path ? scene->path : "(scene)");
+    fl->f[0] = alloc_populations(&fl->g);
+    fl->f[1] = alloc_populations(&fl->g);
+    fl->flags = calloc(fl->g.ncells, 1);
+    if (fl->path == NULL || fl->f[0] == NULL || fl->f[1] == NULL || fl->flags == NULL) {
+        log_msg(log, STATUS_ERROR, "fluid", "%s: out of memory for %d x %d x %d cells (%.3g GB)", fl->path,
+                fl->g.n[0], fl->g.n[1], fl->g.n[2],
+                (double)fl->g.ncells * units_bytes_per_cell() / 1e9);
+        fluid_free(fl);
+        return STATUS_ERROR;
+    }
+    for (int z = 0; z < fl->g.s[2]; z++) {
+        for (int y = 0; y < fl->g.s[1]; y++) {
+            for (int x = 0; x < fl->g.s[0]; x++) {
+                fl->flags[grid_index(&fl->g, x, y, z)] = grid_is_interior(&fl->g, x, y, z) ? CELL_FLUID : CELL_GHOST;
+            }
+        }
+    }
+    const double uv = units_velocity(&fl->units);
+    const double u0[3] = {scene->fluid.initial_velocity[0] / uv, scene->fluid.initial_velocity[1] / uv,
+                          scene->fluid.initial_velocity[2] / uv};
+    init_uniform(fl, 1.0, u0);
+    st = walls_build(&fl->walls, &fl->g, scene, &fl->units, log);
+    if (st != STATUS_OK) {
+        fluid_free(fl);
+        return st;
+    }
+    fl->t0 = 0.0;
+    *out = fl;
+    return STATUS_OK;
+}
+
+void fluid_free(fluid_t *fl)
+{
+    if (fl == NULL) {
+        return;
+    }
+    walls_free(&fl->walls);
+    free(fl->flags);
+    free(fl->f[1]);
+    free(fl->f[0]);
+    free(fl->path);
+    free(fl);
+}
+
+status_t fluid_step(fluid_t *fl)
+{
+    double *src = fl->f[fl->cur];
+    double *dst = fl->f[1 - fl->cur];
+    walls_fill(&fl->walls, &fl->g, src);
+    kernel_stream_collide(&fl->g, &fl->kp, src, dst);
+    fl->cur = 1 - fl->cur;
+    fl->step++;
+    return STATUS_OK;
+}
+
+long fluid_step_count(const fluid_t *fl) { return fl->step; }
+double fluid_time(const fluid_t *fl) { return fl->t0 + (double)fl->step * fl->units.dt; }
+const units_t *fluid_units(const fluid_t *fl) { return &fl->units; }
+double *fluid_populations(fluid_t *fl) { return fl->f[fl->cur]; }
+
+void fluid_cells(const fluid_t *fl, int n[3])
+{
+    for (int a = 0; a < 3; a++) {
+        n[a] = fl->g.n[a];
+    }
+}
+
+size_t fluid_memory_bytes(const fluid_t *fl)
+{
+    return 2 * (size_t)LB_Q * fl->g.ncells * sizeof(double) + fl->g.ncells +
+           fl->walls.nlinks * sizeof(ghost_link_t) + 2 * fl->walls.ncopies * sizeof(size_t) + sizeof *fl;
+}
+
+/* Pulled (pre-collision) moments of interior cell (x,y,z): what the next
+ * collision sees. Needs the boundary stage done on f. */
+static void pulled_moments(const fluid_t *fl, const double *f, int x, int y, int z, double *rho, double u[3])
+{
+    const grid_t *g = &fl->g;
+    const size_t i = grid_index(g, x, y, z);
+    double r = 0.0, j[3] = {0.0, 0.0, 0.0};
+    for (int q = 0; q < LB_Q; q++) {
+        const double v = f[(size_t)q * g->ncells + i - grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2])];
+        r += v;
+        for (int a = 0; a < 3; a++) {
+            j[a] += lb_c[q][a] * v;
+        }
+    }
+    *rho = r;
+    for (int a = 0; a < 3; a++) {
+        u[a] = (j[a] + 0.5 * fl->kp.force[a]) / r;
+    }
+}
+
+void fluid_moments_lattice(fluid_t *fl, double *rho, double *u)
+{
+    const grid_t *g = &fl->g;
+    double *f = fl->f[fl->cur];
+    walls_fill(&fl->walls, g, f);
+    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+#pragma omp parallel for schedule(static)
+    for (int z = 0; z < nz; z++) {
+        for (int y = 0; y < ny; y++) {
+            for (int x = 0; x < nx; x++) {
+                const size_t o = (size_t)x + (size_t)nx * ((size_t)y + (size_t)ny * (size_t)z);
+                double r, v[3];
+                pulled_moments(fl, f, x + 1, y + 1, z + 1, &r, v);
+                if (rho != NULL) {
+                    rho[o] = r;
+                }
+                if (u != NULL) {
+                    u[3 * o] = v[0];
+                    u[3 * o + 1] = v[1];
+                    u[3 * o + 2] = v[2];
+                }
+            }
+        }
+    }
+}
+
+void fluid_set_equilibrium_lattice(fluid_t *fl, const double *rho, const double *u)
+{
+    const grid_t *g = &fl->g;
+    double *f = fl->f[fl->cur];
+    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+    for (int z = 0; z < nz; z++) {
+        for (int y = 0; y < ny; y++) {
+            for (int x = 0; x < nx; x++) {
+                const size_t o = (size_t)x + (size_t)nx * ((size_t)y + (size_t)ny * (size_t)z);
+                const size_t i = grid_index(g, x + 1, y + 1, z + 1);
+                const double r = rho != NULL ? rho[o] : 1.0;
+                const double ux = u != NULL ? u[3 * o] : 0.0, uy = u != NULL ? u[3 * o + 1] : 0.0,
+                             uz = u != NULL ? u[3 * o + 2] : 0.0;
+                for (int q = 0; q < LB_Q; q++) {
+                    f[(size_t)q * g->ncells + i] = lb_feq(q, r, ux, uy, uz);
+                }
+            }
+        }
+    }
+}
+
+void fluid_flags(const fluid_t *fl, unsigned char *flags)
+{
+    const grid_t *g = &fl->g;
+    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+    for (int z = 0; z < nz; z++) {
+        for (int y = 0; y < ny; y++) {
+            for (int x = 0; x < nx; x++) {
+                flags[(size_t)x + (size_t)nx * ((size_t)y + (size_t)ny * (size_t)z)] =
+                    fl->flags[grid_index(g, x + 1, y + 1, z + 1)];
+            }
+        }
+    }
+}
+
+void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
+{
+    const grid_t *g = &fl->g;
+    const double *f = fl->f[fl->cur];
+    double m = 0.0, jx = 0.0, jy = 0.0, jz = 0.0;
+    const int ny = g->n[1], nz = g->n[2];
+#pragma omp parallel for collapse(2) reduction(+ : m, jx, jy, jz) schedule(static)
+    for (int z = 1; z <= nz; z++) {
+        for (int y = 1; y <= ny; y++) {
+            for (int x = 1; x <= g->n[0]; x++) {
+                const size_t i = grid_index(g, x, y, z);
+                if (fl->flags[i] != CELL_FLUID) {
+                    continue;
+                }
+                for (int q = 0; q < LB_Q; q++) {
+                    const double v = f[(size_t)q * g->ncells + i];
+                    m += v;
+                    jx += lb_c[q][0] * v;
+                    jy += lb_c[q][1] * v;
+                    jz += lb_c[q][2] * v;
+                }
+            }
+        }
+    }
+    *mass = m;
+    momentum[0] = jx;
+    momentum[1] = jy;
+    momentum[2] = jz;
+}
+
+status_t fluid_check(fluid_t *fl, double mach_limit)
+{
+    const grid_t *g = &fl->g;
+    const double *f = fl->f[fl->cur];
+    const double umax2 = mach_limit * mach_limit * LB_CS2;
+    long bad = -1;
+    int cause = 0;
+    const int ny = g->n[1], nz = g->n[2];
+#pragma omp parallel for collapse(2) schedule(static) reduction(max : bad)
+    for (int z = 1; z <= nz; z++) {
+        for (int y = 1; y <= ny; y++) {
+            for (int x = 1; x <= g->n[0]; x++) {
+                const size_t i = grid_index(g, x, y, z);
+                if (fl->flags[i] != CELL_FLUID) {
+                    continue;
+                }
+                double r = 0.0, j[3] = {0.0, 0.0, 0.0};
+                for (int q = 0; q < LB_Q; q++) {
+                    const double v = f[(size_t)q * g->ncells + i];
+                    r += v;
+                    for (int a = 0; a < 3; a++) {
+                        j[a] += lb_c[q][a] * v;
+                    }
+                }
+                const double uu = (j[0] * j[0] + j[1] * j[1] + j[2] * j[2]) / (r * r);
+                if (!(r > 0.0) || !isfinite(r) || !(uu <= umax2)) {
+                    bad = (long)i > bad ? (long)i : bad;
+                }
+            }
+        }
+    }
+    if (bad < 0) {
+        return STATUS_OK;
+    }
+    const size_t i = (size_t)bad;
+    const int x = (int)(i % (size_t)g->s[0]);
+    const int y = (int)(i / (size_t)g->s[0] % (size_t)g->s[1]);
+    const int z = (int)(i / ((size_t)g->s[0] * (size_t)g->s[1]));
+    double r = 0.0, j[3] = {0.0, 0.0, 0.0};
+    for (int q = 0; q < LB_Q; q++) {
+        const double v = f[(size_t)q * g->ncells + i];
+        r += v;
+        for (int a = 0; a < 3; a++) {
+            j[a] += lb_c[q][a] * v;
+        }
+    }
+    const double umag = sqrt(j[0] * j[0] + j[1] * j[1] + j[2] * j[2]) / r;
+    cause = !isfinite(r) ? 1 : (!(r > 0.0) ? 2 : 3);
+    static const char *causes[] = {"", "non-finite density (NaN or Inf)", "non-positive density",
+                                   "velocity above the Mach limit"};
+    const double dx = fl->units.dx;
+    return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                   "%s: numerical trouble at step %ld (t = %.6g s), cell (%d, %d, %d) at (%.4g, %.4g, %.4g) m: "
+                   "%s (density %.6g, |u| = %.4g lattice = Mach %.3g, limit Mach %.3g)",
+                   fl->path, fl->step, fluid_time(fl), x - 1, y - 1, z - 1, (x - 0.5) * dx, (y - 0.5) * dx,
+                   (z - 0.5) * dx, causes[cause], r, umag, umag / sqrt(LB_CS2), mach_limit);
+}

@@ -1,0 +1,52 @@
+/* fluid.h — the lattice Boltzmann fluid component (native API).
+ *
+ * An opaque handle and a few verbs: create from a validated scene, step,
+ * read fields and diagnostics, free. No global state: any number of
+ * instances may coexist (FMI requires it). Inputs and outputs are SI unless
+ * a name says _lattice; the conversion lives in units.h. The FMI adapter and
+ * the tests use exactly this API. */
+#ifndef FLUID_FLUID_H
+#define FLUID_FLUID_H
+
+#include "../common/scene.h"
+#include "../common/status.h"
+#include "units.h"
+
+#include <stddef.h>
+
+typedef struct fluid fluid_t;
+
+status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out);
+void fluid_free(fluid_t *fl);
+
+/* One lattice Boltzmann time step: boundary stage, fused stream-collide. */
+status_t fluid_step(fluid_t *fl);
+
+long fluid_step_count(const fluid_t *fl);
+double fluid_time(const fluid_t *fl); /* s */
+const units_t *fluid_units(const fluid_t *fl);
+void fluid_cells(const fluid_t *fl, int n[3]);
+size_t fluid_memory_bytes(const fluid_t *fl);
+
+/* Density and velocity of every interior cell, lattice units, x fastest:
+ * rho[i], u[3*i+a] with i = x + nx*(y + ny*z) (0-based interior coordinates).
+ * The velocity includes the half-force shift of Guo's scheme. */
+void fluid_moments_lattice(fluid_t *fl, double *rho, double *u);
+/* Sets every interior cell to the equilibrium of the given fields (same
+ * layout), e.g. an initial condition; NULL u means at rest. */
+void fluid_set_equilibrium_lattice(fluid_t *fl, const double *rho, const double *u);
+/* Cell type of every interior cell (0 fluid, 1 solid), same layout. */
+void fluid_flags(const fluid_t *fl, unsigned char *flags);
+
+/* Total mass and momentum of the interior (lattice units), for diagnostics. */
+void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3]);
+
+/* Scans for numerical trouble: a non-finite or non-positive density, or a
+ * velocity above mach_limit times the lattice speed of sound. Returns
+ * STATUS_ERROR with step, cell, position and cause in the message. */
+status_t fluid_check(fluid_t *fl, double mach_limit);
+
+/* Low-level access for tests and benchmarks. */
+double *fluid_populations(fluid_t *fl); /* f[cur], SoA, see grid.h */
+
+#endif

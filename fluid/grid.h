@@ -1,0 +1,50 @@
+/* grid.h — the one place that maps cell coordinates to memory.
+ *
+ * The grid holds n[0] x n[1] x n[2] interior cells and one ghost layer on
+ * every side. Coordinates here are allocated coordinates: 0 and n[a]+1 are
+ * ghosts, 1..n[a] interior. x is fastest; the x extent s[0] is padded to a
+ * multiple of GRID_ALIGN cells so that every row of every population array
+ * starts on a 64-byte boundary (the fused kernel streams whole rows with
+ * non-temporal stores). Populations are structure-of-arrays: population q of
+ * cell i is f[q * ncells + i]. Ghost layers make room for domain boundaries
+ * now and for MPI halo exchange later, without a change of layout. */
+#ifndef FLUID_GRID_H
+#define FLUID_GRID_H
+
+#include <stddef.h>
+
+#define GRID_ALIGN 8
+
+typedef struct {
+    int n[3];      /* interior cells */
+    int s[3];      /* allocated extent: s[1] = n[1]+2, s[2] = n[2]+2, s[0] >= n[0]+2 padded */
+    size_t ncells; /* s[0]*s[1]*s[2], a multiple of GRID_ALIGN */
+} grid_t;
+
+static inline void grid_init(grid_t *g, const int n[3])
+{
+    for (int a = 0; a < 3; a++) {
+        g->n[a] = n[a];
+        g->s[a] = n[a] + 2;
+    }
+    g->s[0] = (g->s[0] + GRID_ALIGN - 1) / GRID_ALIGN * GRID_ALIGN;
+    g->ncells = (size_t)g->s[0] * (size_t)g->s[1] * (size_t)g->s[2];
+}
+
+static inline size_t grid_index(const grid_t *g, int x, int y, int z)
+{
+    return ((size_t)z * (size_t)g->s[1] + (size_t)y) * (size_t)g->s[0] + (size_t)x;
+}
+
+/* Offset of the neighbour at (+cx, +cy, +cz). */
+static inline ptrdiff_t grid_offset(const grid_t *g, int cx, int cy, int cz)
+{
+    return (ptrdiff_t)cx + (ptrdiff_t)g->s[0] * ((ptrdiff_t)cy + (ptrdiff_t)g->s[1] * (ptrdiff_t)cz);
+}
+
+static inline int grid_is_interior(const grid_t *g, int x, int y, int z)
+{
+    return x >= 1 && x <= g->n[0] && y >= 1 && y <= g->n[1] && z >= 1 && z <= g->n[2];
+}
+
+#endif

@@ -1,0 +1,29 @@
+/* kernel.h — the fused pull stream–collide step (the hot loop).
+ *
+ * One call advances every interior row by one time step: each cell pulls
+ * f_q from its neighbour at x - c_q in src (post-collision values of the
+ * previous step, with ghost and solid neighbours already filled by the
+ * boundary stage), collides with TRT (BGK when omega_minus == omega_plus)
+ * including Guo forcing, and writes post-collision values to dst.
+ * Ghost columns of interior rows are computed too (their values are never
+ * read before the boundary stage overwrites them); this keeps every row
+ * aligned for non-temporal stores. */
+#ifndef FLUID_KERNEL_H
+#define FLUID_KERNEL_H
+
+#include "grid.h"
+
+typedef struct {
+    double omega_plus;  /* 1/tau: sets the viscosity nu = (1/omega_plus - 1/2)/3 */
+    double omega_minus; /* TRT: from the magic parameter; BGK: = omega_plus */
+    double force[3];    /* body force per volume, lattice units (Guo et al. 2002) */
+} kernel_params_t;
+
+/* omega_minus for the magic parameter Lambda = (1/w+ - 1/2)(1/w- - 1/2)
+ * (Ginzburg, Verhaeghe & d'Humieres, Commun. Comput. Phys. 3 (2008) 427). */
+double kernel_omega_minus(double omega_plus, double magic);
+
+void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const double *restrict src,
+                           double *restrict dst);
+
+#endif

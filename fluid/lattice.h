@@ -1,0 +1,33 @@
+/* lattice.h — the D3Q19 velocity set.
+ *
+ * Direction 0 is at rest; directions 1..9 are the positive half of the set
+ * (first non-zero component positive) and 10..18 their opposites, so that
+ * the opposite of q is q+9 for 1 <= q <= 9 and q-9 for q >= 10 (a rule, not a
+ * table lookup). Weights: 1/3 (rest), 1/18 (axis), 1/36 (face diagonals);
+ * lattice speed of sound c_s^2 = 1/3. Reference: Qian, d'Humieres & Lallemand,
+ * Europhys. Lett. 17 (1992) 479. The identities sum w = 1, sum w c = 0,
+ * sum w c_a c_b = c_s^2 delta_ab are asserted in tests/fluid/test_lattice.c. */
+#ifndef FLUID_LATTICE_H
+#define FLUID_LATTICE_H
+
+#define LB_Q 19
+#define LB_HALF 9
+#define LB_CS2 (1.0 / 3.0)
+
+extern const int lb_c[LB_Q][3];
+extern const double lb_w[LB_Q];
+
+static inline int lb_opposite(int q)
+{
+    return q == 0 ? 0 : (q <= LB_HALF ? q + LB_HALF : q - LB_HALF);
+}
+
+/* Second-order equilibrium (the paper's Eq. 4 with c = 1). */
+static inline double lb_feq(int q, double rho, double ux, double uy, double uz)
+{
+    const double cu = lb_c[q][0] * ux + lb_c[q][1] * uy + lb_c[q][2] * uz;
+    const double uu = ux * ux + uy * uy + uz * uz;
+    return lb_w[q] * rho * (1.0 + 3.0 * cu + 4.5 * cu * cu - 1.5 * uu);
+}
+
+#endif

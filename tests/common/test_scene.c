@@ -1,0 +1,735 @@
+/* test_scene.c — tests of the scene reader (common/scene.c).
+ *
+ * Each test writes its YAML to a fresh mkdtemp directory, loads it with a log
+ * sink that captures every message, and removes the file and directory
+ * again. The reference for every expected value is the scene format in
+ * models/README.md (and issues 2 and 3, "Bad input"): each bad-input case
+ * must fail with *out == NULL, write nothing, and give one message naming the
+ * file, the key, the value and the allowed range. */
+#include "scene_tests.h"
+
+#include "../../common/scene.h"
+
+#include <CUnit/CUnit.h>
+#include <dirent.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* The base scene: loads with STATUS_OK. Line numbers are used below. */
+static const char BASE[] =
+    "domain:\n"                                                           /* 1 */
+    "  size: [1.0e-3, 1.0e-3, 2.0e-3]\n"                                  /* 2 */
+    "  faces:\n"                                                          /* 3 */
+    "    z_min: {type: no_slip}\n"                                        /* 4 */
+    "    z_max: {type: moving_wall, velocity: [1.0e-3, 0, 0]}\n"          /* 5 */
+    "fluid:\n"                                                            /* 6 */
+    "  density: 1000.0\n"                                                 /* 7 */
+    "  viscosity: 1.0e-6\n"                                               /* 8 */
+    "  dx: 2.5e-5\n"                                                      /* 9 */
+    "  tau: 0.8\n"                                                        /* 10 */
+    "bodies:\n"                                                           /* 11 */
+    "  - name: p1\n"                                                      /* 12 */
+    "    density: 2000.0\n"                                               /* 13 */
+    "    spheres:\n"                                                      /* 14 */
+    "      - {center: [5.0e-4, 5.0e-4, 5.0e-4], radius: 1.0e-4}\n"        /* 15 */
+    "      - {center: [6.5e-4, 5.0e-4, 5.0e-4], radius: 1.0e-4}\n"        /* 16 */
+    "  - name: p2\n"                                                      /* 17 */
+    "    density: 2500.0\n"                                               /* 18 */
+    "    motion: fixed\n"                                                 /* 19 */
+    "    spheres:\n"                                                      /* 20 */
+    "      - {center: [2.0e-4, 2.0e-4, 1.5e-3], radius: 1.0e-4}\n"        /* 21 */
+    "connections:\n"                                                      /* 22 */
+    "  - {spheres: [0, 1], max_normal: 1.0e-6}\n"                         /* 23 */
+    "contacts: {model: spring_dashpot, contact_time: 1.0e-3}\n"           /* 24 */
+    "rigid: {integrator: cvode, gravity: [0, 0, -9.81]}\n"                /* 25 */
+    "run: {end_time: 0.1}\n";                                             /* 26 */
+
+/* Only the required keys: every other value comes from a default. */
+static const char MINIMAL[] =
+    "domain: {size: [1.0e-3, 1.0e-3, 1.0e-3]}\n"
+    "fluid: {density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-4, tau: 1.0}\n"
+    "run: {end_time: 2.0}\n";
+
+/* ------------------------------------------------------------------------ */
+
+typedef struct {
+    char text[32768];
+    size_t len;
+    int nerrors, nwarnings;
+} capture_t;
+
+static void capture_log(void *ctx, status_t level, const char *category, const char *msg)
+{
+    capture_t *c = ctx;
+    int n = snprintf(c->text + c->len, sizeof c->text - c->len, "%s: [%s] %s\n", status_name(level),
+                     category ? category : "-", msg);
+    if (n > 0) {
+        c->len = c->len + (size_t)n < sizeof c->text ? c->len + (size_t)n : sizeof c->text - 1;
+    }
+    if (level >= STATUS_ERROR) {
+        c->nerrors++;
+    } else if (level == STATUS_WARNING) {
+        c->nwarnings++;
+    }
+}
+
+static int dir_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (d == NULL) {
+        return -1;
+    }
+    int n = 0;
+    for (struct dirent *e = readdir(d); e != NULL; e = readdir(d)) {
+        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0) {
+            n++;
+        }
+    }
+    closedir(d);
+    return n;
+}
+
+/* Writes yaml (when not NULL) to DIR/scene.yaml in a fresh temporary
+ * directory, loads it, checks that the loader wrote nothing into the
+ * directory, and removes everything again. */
+static status_t load(const char *yaml, const char *const *ov, int nov, capture_t *cap, scene_t **out)
+{
+    char dir[] = "/tmp/scene_test_XXXXXX";
+    char path[64];
+    memset(cap, 0, sizeof *cap);
+    *out = (scene_t *)cap; /* a sentinel: scene_load must overwrite it, with NULL on failure */
+    CU_ASSERT_PTR_NOT_NULL_FATAL(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/scene.yaml", dir);
+    if (yaml != NULL) {
+        FILE *f = fopen(path, "w");
+        CU_ASSERT_PTR_NOT_NULL_FATAL(f);
+        CU_ASSERT_EQUAL(fputs(yaml, f) >= 0, 1);
+        CU_ASSERT_EQUAL(fclose(f), 0);
+    }
+    const log_t log = {capture_log, cap};
+    status_t st = scene_load(path, ov, nov, &log, out);
+    CU_ASSERT_EQUAL(dir_entries(dir), yaml != NULL ? 1 : 0);
+    if (yaml != NULL) {
+        CU_ASSERT_EQUAL(unlink(path), 0);
+    }
+    CU_ASSERT_EQUAL(rmdir(dir), 0);
+    return st;
+}
+
+static void assert_contains(const capture_t *cap, const char *needle, int line)
+{
+    char msg[1024];
+    bool ok = strstr(cap->text, needle) != NULL;
+    snprintf(msg, sizeof msg, "log contains \"%s\"; log was: %.800s", needle, cap->text);
+    CU_assertImplementation(ok ? CU_TRUE : CU_FALSE, (unsigned)line, msg, __FILE__, "", CU_FALSE);
+}
+
+/* Loads yaml with the overrides and expects failure with every needle
+ * (a NULL-terminated list) in the captured messages. */
+static void expect_error_at(int line, const char *yaml, const char *const *ov, int nov, ...)
+{
+    capture_t *cap = malloc(sizeof *cap);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(cap);
+    scene_t *s = NULL;
+    status_t st = load(yaml, ov, nov, cap, &s);
+    char msg[1024];
+    snprintf(msg, sizeof msg, "load fails with an error; log was: %.800s", cap->text);
+    CU_assertImplementation(st >= STATUS_ERROR ? CU_TRUE : CU_FALSE, (unsigned)line, msg, __FILE__, "", CU_FALSE);
+    CU_ASSERT_PTR_NULL(s);
+    if (st < STATUS_ERROR) {
+        scene_free(s);
+    }
+    CU_ASSERT(cap->nerrors >= 1);
+    va_list ap;
+    va_start(ap, nov);
+    for (const char *needle = va_arg(ap, const char *); needle != NULL; needle = va_arg(ap, const char *)) {
+        assert_contains(cap, needle, line);
+    }
+    va_end(ap);
+    free(cap);
+}
+
+#define EXPECT_ERROR(yaml, ov, nov, ...) expect_error_at(__LINE__, yaml, ov, nov, __VA_ARGS__, (const char *)NULL)
+
+/* One override on the base scene. */
+#define EXPECT_SET_ERROR(set, ...)                             \
+    do {                                                       \
+        const char *const ov_[] = {set};                       \
+        EXPECT_ERROR(BASE, ov_, 1, "scene.yaml", __VA_ARGS__); \
+    } while (0)
+
+/* The base scene with one line replaced (1-based), for errors located by line. */
+static char *base_with_line(int line, const char *replacement)
+{
+    size_t cap = sizeof BASE + strlen(replacement) + 1;
+    char *out = malloc(cap);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(out);
+    const char *p = BASE;
+    size_t pos = 0;
+    for (int l = 1; *p != '\0'; l++) {
+        const char *eol = strchr(p, '\n');
+        size_t n = (size_t)(eol - p) + 1;
+        if (l == line) {
+            pos += (size_t)snprintf(out + pos, cap - pos, "%s\n", replacement);
+        } else {
+            memcpy(out + pos, p, n);
+            pos += n;
+        }
+        p += n;
+    }
+    out[pos] = '\0';
+    return out;
+}
+
+static void expect_line_error(int test_line, int line, const char *replacement, const char *n1, const char *n2,
+                              const char *n3)
+{
+    char *yaml = base_with_line(line, replacement);
+    expect_error_at(test_line, yaml, NULL, 0, n1, n2, n3, (const char *)NULL);
+    free(yaml);
+}
+
+#define EXPECT_LINE_ERROR(line, replacement, n1, n2, n3) expect_line_error(__LINE__, line, replacement, n1, n2, n3)
+
+/* ------------------------------------------------------------------------ */
+/* Valid scenes.                                                            */
+
+static void test_base_scene(void)
+{
+    capture_t cap;
+    scene_t *s = NULL;
+    status_t st = load(BASE, NULL, 0, &cap, &s);
+    CU_ASSERT_EQUAL(st, STATUS_OK);
+    CU_ASSERT_EQUAL(cap.len, 0);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(s);
+    CU_ASSERT_PTR_NOT_NULL(strstr(s->path, "scene.yaml"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(s->text, "moving_wall"));
+    CU_ASSERT_DOUBLE_EQUAL(s->domain.size[2], 2.0e-3, 0);
+    CU_ASSERT_EQUAL(s->domain.faces[0].type, FACE_PERIODIC);
+    CU_ASSERT_EQUAL(s->domain.faces[4].type, FACE_NO_SLIP);
+    CU_ASSERT_EQUAL(s->domain.faces[5].type, FACE_MOVING_WALL);
+    CU_ASSERT_DOUBLE_EQUAL(s->domain.faces[5].velocity[0], 1.0e-3, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.dx, 2.5e-5, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.cells_per_radius, 0, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau, 0.8, 0);
+    /* dt = (tau - 1/2) dx^2 / (3 nu) = 0.3 * 6.25e-10 / 3e-6 = 6.25e-5 s */
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.dt, 6.25e-5, 1e-18);
+    CU_ASSERT_EQUAL(s->nbodies, 2);
+    CU_ASSERT_EQUAL(scene_total_spheres(s), 3);
+    CU_ASSERT_STRING_EQUAL(s->bodies[0].name, "p1");
+    CU_ASSERT_EQUAL(s->bodies[0].nspheres, 2);
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].spheres[1].center[0], 6.5e-4, 0);
+    CU_ASSERT_EQUAL(s->bodies[0].motion, MOTION_FREE);
+    CU_ASSERT_EQUAL(s->bodies[1].motion, MOTION_FIXED);
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[1].density, 2500.0, 0);
+    CU_ASSERT_EQUAL(s->nconnections, 1);
+    CU_ASSERT_EQUAL(s->connections[0].a, 0);
+    CU_ASSERT_EQUAL(s->connections[0].b, 1);
+    CU_ASSERT_DOUBLE_EQUAL(s->connections[0].max_normal, 1.0e-6, 0);
+    CU_ASSERT(isinf(s->connections[0].max_shear) && s->connections[0].max_shear > 0);
+    CU_ASSERT(isinf(s->connections[0].max_torque));
+    CU_ASSERT_EQUAL(s->contacts.model, CONTACT_SPRING_DASHPOT);
+    CU_ASSERT_EQUAL(s->rigid.integrator, INTEGRATOR_CVODE);
+    CU_ASSERT_DOUBLE_EQUAL(s->rigid.gravity[2], -9.81, 0);
+    CU_ASSERT_STRING_EQUAL(face_type_name(FACE_PRESSURE_OUTLET), "pressure_outlet");
+    scene_free(s);
+}
+
+/* Every default of models/README.md. */
+static void test_defaults(void)
+{
+    capture_t cap;
+    scene_t *s = NULL;
+    CU_ASSERT_EQUAL(load(MINIMAL, NULL, 0, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(s);
+    for (int f = 0; f < 6; f++) {
+        CU_ASSERT_EQUAL(s->domain.faces[f].type, FACE_PERIODIC);
+        CU_ASSERT_EQUAL(s->domain.faces[f].profile, PROFILE_UNIFORM);
+        CU_ASSERT_DOUBLE_EQUAL(s->domain.faces[f].pressure, 0, 0);
+    }
+    CU_ASSERT_EQUAL(s->fluid.collision, COLLISION_TRT);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.magic, 3.0 / 16.0, 0);
+    CU_ASSERT_EQUAL(s->fluid.boundary_scheme, BOUNDARY_CLI);
+    CU_ASSERT_EQUAL(s->fluid.refill, REFILL_EXTRAPOLATION);
+    CU_ASSERT_EQUAL(s->fluid.force_method, FORCE_GALILEAN);
+    CU_ASSERT_EQUAL(s->fluid.force_averaging, 0);
+    for (int a = 0; a < 3; a++) {
+        CU_ASSERT_DOUBLE_EQUAL(s->fluid.body_force[a], 0, 0);
+        CU_ASSERT_DOUBLE_EQUAL(s->fluid.initial_velocity[a], 0, 0);
+        CU_ASSERT_DOUBLE_EQUAL(s->rigid.gravity[a], 0, 0);
+    }
+    CU_ASSERT_EQUAL(s->nbodies, 0);
+    CU_ASSERT_PTR_NULL(s->bodies);
+    CU_ASSERT_EQUAL(s->nconnections, 0);
+    CU_ASSERT_PTR_NULL(s->connections);
+    CU_ASSERT_EQUAL(s->contacts.model, CONTACT_NONE);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.restitution, 0.9, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.contact_time, 1e-4, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.friction, 0, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.young_modulus, 1e9, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.poisson_ratio, 0.3, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.stick_speed, 0, 0);
+    CU_ASSERT_EQUAL(s->rigid.integrator, INTEGRATOR_VERLET);
+    CU_ASSERT_EQUAL(s->rigid.cvode_method, CVODE_BDF);
+    CU_ASSERT_EQUAL(s->rigid.linear_solver, LINSOL_DENSE);
+    CU_ASSERT_DOUBLE_EQUAL(s->rigid.rtol, 1e-8, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->rigid.atol, 1e-12, 0);
+    CU_ASSERT_EQUAL(s->rigid.substeps, 1);
+    CU_ASSERT_DOUBLE_EQUAL(s->run.end_time, 2.0, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->run.output_interval, 0.02, 0);
+    CU_ASSERT_EQUAL(s->run.fields, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->run.field_interval, 0.02, 0);
+    scene_free(s);
+
+    /* Body defaults. */
+    const char *const ov[] = {"bodies=[{density: 1500, spheres: [{center: [5e-4, 5e-4, 5e-4], radius: 2e-4}]}]"};
+    CU_ASSERT_EQUAL(load(MINIMAL, ov, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(s);
+    CU_ASSERT_PTR_NULL(s->bodies[0].name);
+    CU_ASSERT_EQUAL(s->bodies[0].motion, MOTION_FREE);
+    for (int a = 0; a < 3; a++) {
+        CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].velocity[a], 0, 0);
+        CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].angular_velocity[a], 0, 0);
+    }
+    scene_free(s);
+}
+
+/* dx from cells_per_radius (dx = smallest radius / value), tau from dt. */
+static void test_derived(void)
+{
+    capture_t cap;
+    scene_t *s = NULL;
+    const char *const ov[] = {
+        "fluid={density: 1000.0, viscosity: 1.0e-6, cells_per_radius: 4, dt: 5.0e-5}",
+        "bodies.1.spheres.0.radius=5.0e-5",
+        "domain.size=[1.0e-3, 1.0e-3, 2.0e-3]",
+    };
+    CU_ASSERT_EQUAL(load(BASE, ov, 3, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(s);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.cells_per_radius, 4, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.dx, 1.25e-5, 1e-20);
+    /* tau = 1/2 + 3 nu dt / dx^2 = 0.5 + 1.5e-10 / 1.5625e-10 = 1.46 */
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau, 1.46, 1e-12);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.dt, 5.0e-5, 0);
+    scene_free(s);
+}
+
+/* --set: dotted keys, list indices, lists as values, created keys. */
+static void test_overrides(void)
+{
+    capture_t cap;
+    scene_t *s = NULL;
+    const char *const ov[] = {
+        "fluid.tau=1.0",
+        "rigid.integrator=verlet",
+        "bodies.0.density=3000",
+        "domain.size=[1e-3,1e-3,1e-3]",
+        "domain.faces.x_min.type=no_slip",
+        "domain.faces.x_max={type: pressure_outlet, pressure: 12.5}",
+        "contacts.model=hertz",
+        "run.fields=true",
+        "bodies.1.spheres.0.center.2=5e-4",
+        "connections.0.max_shear=2e-6",
+        "fluid.tau=1.5", /* later overrides win */
+    };
+    CU_ASSERT_EQUAL(load(BASE, ov, 11, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(s);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau, 1.5, 0);
+    CU_ASSERT_EQUAL(s->rigid.integrator, INTEGRATOR_VERLET);
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].density, 3000, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->domain.size[2], 1e-3, 0);
+    CU_ASSERT_EQUAL(s->domain.faces[0].type, FACE_NO_SLIP);
+    CU_ASSERT_EQUAL(s->domain.faces[1].type, FACE_PRESSURE_OUTLET);
+    CU_ASSERT_DOUBLE_EQUAL(s->domain.faces[1].pressure, 12.5, 0);
+    CU_ASSERT_EQUAL(s->contacts.model, CONTACT_HERTZ);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.contact_time, 1.0e-3, 0); /* untouched sibling key */
+    CU_ASSERT_EQUAL(s->run.fields, 1);
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[1].spheres[0].center[2], 5e-4, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->connections[0].max_shear, 2e-6, 0);
+    /* scene->text is the scene as run, after the overrides */
+    CU_ASSERT_PTR_NOT_NULL(strstr(s->text, "pressure_outlet"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(s->text, "tau: 1.5"));
+    CU_ASSERT_PTR_NULL(strstr(s->text, "tau: 0.8"));
+    scene_free(s);
+
+    /* A group absent from the file is created by the override. */
+    const char *const ov2[] = {"rigid.substeps=4", "domain.faces.z_min.type=free_slip",
+                               "domain.faces.z_max.type=free_slip"};
+    CU_ASSERT_EQUAL(load(MINIMAL, ov2, 3, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(s);
+    CU_ASSERT_EQUAL(s->rigid.substeps, 4);
+    CU_ASSERT_EQUAL(s->domain.faces[5].type, FACE_FREE_SLIP);
+    scene_free(s);
+}
+
+static void test_warnings(void)
+{
+    capture_t cap;
+    scene_t *s = NULL;
+    /* A key that the face type does not use is ignored with a warning. */
+    const char *const ov[] = {"domain.faces.z_min.pressure=3", "fluid.collision=bgk", "fluid.magic=0.25"};
+    CU_ASSERT_EQUAL(load(BASE, ov, 3, &cap, &s), STATUS_OK); /* usable: warnings are only logged */
+    CU_ASSERT_PTR_NOT_NULL(s);
+    CU_ASSERT_EQUAL(cap.nerrors, 0);
+    CU_ASSERT_EQUAL(cap.nwarnings, 2);
+    assert_contains(&cap, "domain.faces.z_min.pressure = 3: ignored for a no_slip face", __LINE__);
+    assert_contains(&cap, "fluid.magic = 0.25: ignored", __LINE__);
+    scene_free(s);
+
+    /* A free body faster than half a cell per step: warning only. */
+    const char *const ov2[] = {"bodies.0.velocity=[1, 0, 0]"};
+    CU_ASSERT_EQUAL(load(BASE, ov2, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_EQUAL(cap.nwarnings, 1);
+    CU_ASSERT_PTR_NOT_NULL(s);
+    assert_contains(&cap, "bodies.0.velocity = [1, 0, 0]", __LINE__);
+    assert_contains(&cap, "allowed: at most 0.5 cells per step = 0.2 m/s", __LINE__);
+    scene_free(s);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Bad input: files and YAML.                                               */
+
+static void test_missing_file(void)
+{
+    EXPECT_ERROR(NULL, NULL, 0, "scene.yaml: cannot open the scene file: No such file or directory");
+}
+
+static void test_syntax_error(void)
+{
+    EXPECT_LINE_ERROR(10, "  tau: [0.8", "scene.yaml:", "YAML syntax error", "flow sequence at line 10, column 8");
+    EXPECT_LINE_ERROR(10, "  tau: 0.8\n   dt: 1", "scene.yaml:11:6: YAML syntax error",
+                      "mapping values are not allowed", "error");
+}
+
+static void test_empty_and_multi_document(void)
+{
+    EXPECT_ERROR("", NULL, 0, "scene.yaml: the scene is empty");
+    EXPECT_ERROR("- 1\n- 2\n", NULL, 0, "scene.yaml: the top level is a list", "allowed: a mapping");
+    char two[sizeof BASE + 16];
+    snprintf(two, sizeof two, "%s---\na: 1\n", BASE);
+    EXPECT_ERROR(two, NULL, 0, "scene.yaml: more than one YAML document");
+}
+
+/* libcyaml's schema checks, reported with the dotted key and line. */
+static void test_unknown_key(void)
+{
+    EXPECT_LINE_ERROR(10, "  tau: 0.8\n  visc: 2", "scene.yaml:11: fluid.visc: unknown key",
+                      "allowed in fluid: a mapping with the keys density (required), viscosity (required), dx",
+                      "libcyaml: Unexpected key: visc");
+    EXPECT_LINE_ERROR(16, "      - {center: [6.5e-4, 5.0e-4, 5.0e-4], radius: 1.0e-4, colour: red}",
+                      "scene.yaml:16: bodies.0.spheres.1.colour: unknown key",
+                      "allowed in bodies.0.spheres.1: a mapping with the keys center (required), radius (required)",
+                      "error");
+    EXPECT_LINE_ERROR(26, "run: {end_time: 0.1}\nextra: 1", "scene.yaml:27: extra: unknown key",
+                      "allowed in the top level", "domain (required)");
+}
+
+static void test_missing_key(void)
+{
+    EXPECT_LINE_ERROR(8, "", "scene.yaml:6: fluid.viscosity: required key is missing", "allowed in fluid",
+                      "viscosity (required)");
+    EXPECT_LINE_ERROR(21, "      - {center: [2.0e-4, 2.0e-4, 1.5e-3]}",
+                      "scene.yaml:21: bodies.1.spheres.0.radius: required key is missing", "radius (required)",
+                      "error");
+    EXPECT_LINE_ERROR(26, "", "scene.yaml: run: required key is missing", "run (required)", "error");
+}
+
+static void test_wrong_type(void)
+{
+    EXPECT_LINE_ERROR(13, "    density: [2000]", "scene.yaml:13: bodies.0.density: wrong type or value",
+                      "got event: SEQUENCE_START", "allowed: a number");
+    EXPECT_LINE_ERROR(7, "  density: heavy", "scene.yaml:7: fluid.density: wrong type or value",
+                      "Invalid FLOAT value: heavy", "allowed: a number");
+    EXPECT_LINE_ERROR(2, "  size: [1.0e-3, 1.0e-3]", "scene.yaml:2: domain.size: wrong type or value",
+                      "allowed: a list of exactly 3 numbers", "error");
+    EXPECT_LINE_ERROR(25, "rigid: {integrator: rk4}", "scene.yaml:25: rigid.integrator: wrong type or value",
+                      "rk4", "allowed: one of verlet | cvode");
+    EXPECT_LINE_ERROR(4, "    z_min: {type: wall}", "scene.yaml:4: domain.faces.z_min.type",
+                      "allowed: one of periodic | no_slip | free_slip | moving_wall | velocity_inlet | pressure_outlet",
+                      "wall");
+    EXPECT_SET_ERROR("bodies.1.spheres=[]", "bodies.1.spheres: wrong type or value",
+                     "allowed: a list of at least 1 entries");
+    EXPECT_LINE_ERROR(10, "  tau: 0.8\n  density: 1.0", "scene.yaml:11: fluid.density: key given twice",
+                      "allowed: each key once", "error");
+    EXPECT_SET_ERROR("run.fields=maybe", "run.fields: wrong type or value", "allowed: one of true | false | yes | no | on | off");
+    EXPECT_SET_ERROR("fluid=3", "fluid: wrong type or value", "allowed: a mapping with the keys density");
+}
+
+static void test_bad_override(void)
+{
+    EXPECT_SET_ERROR("fluid.visc=1", "override 'fluid.visc=1': unknown key 'visc' in fluid",
+                     "allowed: a mapping with the keys density");
+    EXPECT_SET_ERROR("flud.tau=1", "override 'flud.tau=1': unknown key 'flud'", "allowed");
+    EXPECT_SET_ERROR("fluid.tau", "override 'fluid.tau': expected KEY=VALUE");
+    EXPECT_SET_ERROR("=1", "override '=1': expected KEY=VALUE");
+    EXPECT_SET_ERROR("fluid..tau=1", "override 'fluid..tau=1': empty key component");
+    EXPECT_SET_ERROR("fluid.tau=", "override 'fluid.tau=': the value is empty");
+    EXPECT_SET_ERROR("fluid.tau=[1", "override 'fluid.tau=[1': the value is not YAML", "YAML syntax error");
+    EXPECT_SET_ERROR("bodies.2.density=1", "override 'bodies.2.density=1': index 2 is out of range",
+                     "bodies has 2 entries (allowed: 0 to 1)");
+    EXPECT_SET_ERROR("bodies.first.density=1", "bodies is a list, so 'first' must be an index");
+    EXPECT_SET_ERROR("fluid.tau.x=1", "fluid.tau is a number and has no key 'x'");
+    const char *const ov[] = {"fluid.tau=3"};
+    EXPECT_ERROR("fluid: 3\ndomain: {size: [1, 1, 1]}\nrun: {end_time: 1}\n", ov, 1,
+                 "override 'fluid.tau=3': fluid is a scalar in the file, not a mapping");
+}
+
+/* ------------------------------------------------------------------------ */
+/* Bad input: values and consistency.                                       */
+
+static void test_out_of_range(void)
+{
+    /* key=value, then the expected "KEY = VALUE: out of range; allowed: RANGE" */
+    static const char *const cases[][2] = {
+        {"fluid.density=0", "fluid.density = 0: out of range; allowed: (0, inf)"},
+        {"fluid.viscosity=-1e-6", "fluid.viscosity = -1e-06: out of range; allowed: (0, inf)"},
+        {"fluid.dx=0", "fluid.dx = 0: out of range; allowed: (0, inf)"},
+        {"fluid.tau=0.5", "fluid.tau = 0.5: out of range; allowed: (0.5, inf)"},
+        {"fluid.tau=0.3", "fluid.tau = 0.3: out of range; allowed: (0.5, inf)"},
+        {"fluid.magic=0", "fluid.magic = 0: out of range; allowed: (0, inf)"},
+        {"fluid.density=nan", "fluid.density = nan: out of range"},
+        {"fluid.density=1e400", "fluid.density = inf: out of range; allowed: (0, inf)"},
+        {"domain.size=[1e-3, 0, 2e-3]", "domain.size = [0.001, 0, 0.002]: the y extent is 0; allowed: each in (0, inf)"},
+        {"bodies.0.density=-1", "bodies.0.density = -1: out of range; allowed: (0, inf)"},
+        {"bodies.0.spheres.1.radius=0", "bodies.0.spheres.1.radius = 0: out of range; allowed: (0, inf)"},
+        {"connections.0.max_normal=-1", "connections.0.max_normal = -1: out of range; allowed: [0, inf]"},
+        {"connections.0.max_torque=-1e-12", "connections.0.max_torque = -1e-12: out of range; allowed: [0, inf]"},
+        {"contacts.restitution=0", "contacts.restitution = 0: out of range; allowed: (0, 1]"},
+        {"contacts.restitution=1.01", "contacts.restitution = 1.01: out of range; allowed: (0, 1]"},
+        {"contacts.contact_time=0", "contacts.contact_time = 0: out of range; allowed: (0, inf)"},
+        {"contacts.friction=-0.1", "contacts.friction = -0.1: out of range; allowed: [0, inf)"},
+        {"contacts.young_modulus=0", "contacts.young_modulus = 0: out of range; allowed: (0, inf)"},
+        {"contacts.poisson_ratio=0.5", "contacts.poisson_ratio = 0.5: out of range; allowed: [0, 0.5)"},
+        {"contacts.poisson_ratio=-0.1", "contacts.poisson_ratio = -0.1: out of range; allowed: [0, 0.5)"},
+        {"contacts.stick_speed=-1", "contacts.stick_speed = -1: out of range; allowed: [0, inf)"},
+        {"rigid.rtol=0", "rigid.rtol = 0: out of range; allowed: (0, inf)"},
+        {"rigid.atol=-1e-12", "rigid.atol = -1e-12: out of range; allowed: (0, inf)"},
+        {"rigid.substeps=0", "rigid.substeps = 0: not a whole number in range; allowed: an integer in [1, 2147483647]"},
+        {"rigid.substeps=2.5", "rigid.substeps = 2.5: not a whole number in range; allowed: an integer in [1,"},
+        {"run.end_time=0", "run.end_time = 0: out of range; allowed: (0, inf)"},
+        {"run.output_interval=-1", "run.output_interval = -1: out of range; allowed: (0, inf)"},
+        {"run.field_interval=0", "run.field_interval = 0: out of range; allowed: (0, inf)"},
+        {"rigid.gravity=[0, 0, nan]", "rigid.gravity = [0, 0, nan]: component 2 is not a finite number"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char where[128];
+        snprintf(where, sizeof where, "scene.yaml (--set %s): ", cases[i][0]);
+        EXPECT_SET_ERROR(cases[i][0], where, cases[i][1]);
+    }
+    /* Located by line when the value comes from the file. */
+    EXPECT_LINE_ERROR(10, "  tau: 0.4", "scene.yaml:10: fluid.tau = 0.4: out of range; allowed: (0.5, inf)",
+                      "error", "error");
+    EXPECT_LINE_ERROR(24, "contacts: {model: hertz, poisson_ratio: 0.7}",
+                      "scene.yaml:24: contacts.poisson_ratio = 0.7: out of range; allowed: [0, 0.5)", "error",
+                      "error");
+}
+
+static void test_resolution_exclusive(void)
+{
+    EXPECT_SET_ERROR("fluid.cells_per_radius=4", "fluid.dx: both fluid.dx and fluid.cells_per_radius are given",
+                     "allowed: exactly one of fluid.dx (m) and fluid.cells_per_radius");
+    EXPECT_LINE_ERROR(9, "", "scene.yaml:6: fluid: neither fluid.dx nor fluid.cells_per_radius is given",
+                      "allowed: exactly one of fluid.dx", "error");
+    EXPECT_SET_ERROR("fluid.dt=1e-5", "fluid.tau: both fluid.tau and fluid.dt are given",
+                     "allowed: exactly one of fluid.tau and fluid.dt");
+    EXPECT_LINE_ERROR(10, "", "scene.yaml:6: fluid: neither fluid.tau nor fluid.dt is given",
+                      "allowed: exactly one of fluid.tau and fluid.dt", "error");
+    const char *const ov[] = {"fluid={density: 1000.0, viscosity: 1.0e-6, cells_per_radius: 4, tau: 1}"};
+    EXPECT_ERROR(MINIMAL, ov, 1, "fluid.cells_per_radius = 4: needs at least one sphere in bodies",
+                 "allowed: give fluid.dx instead");
+    const char *const ov2[] = {"fluid={density: 1000.0, viscosity: 1.0e-6, cells_per_radius: 1.2, tau: 1}"};
+    EXPECT_ERROR(BASE, ov2, 1, "fluid.cells_per_radius = 1.2: out of range; allowed: [1.5, inf)");
+}
+
+static void test_not_divisible(void)
+{
+    EXPECT_SET_ERROR("domain.size=[1e-3, 1e-3, 2.01e-3]",
+                     "domain.size = [0.001, 0.001, 0.00201]: the z extent 0.00201 m is 80.4 cells of fluid.dx = "
+                     "2.5e-05 m; allowed: a whole number (>= 1) of cells (relative tolerance 1e-09)");
+    EXPECT_SET_ERROR("fluid.dx=3e-5", "domain.size = [0.001, 0.001, 0.002]: the x extent 0.001 m is 33.3333333333 cells");
+    /* within the relative tolerance 1e-9: accepted */
+    capture_t cap;
+    scene_t *s = NULL;
+    const char *const ov[] = {"domain.size=[1.0000000000001e-3, 1e-3, 2e-3]"};
+    CU_ASSERT_EQUAL(load(BASE, ov, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL(s);
+    scene_free(s);
+}
+
+static void test_faces(void)
+{
+    EXPECT_SET_ERROR("domain.faces.x_min.type=no_slip",
+                     "domain.faces.x_min.type = no_slip, but x_max is periodic; allowed: periodic on both x_min and "
+                     "x_max, or on neither");
+    EXPECT_SET_ERROR("domain.faces.z_max.type=periodic", "domain.faces.z_min.type = no_slip, but z_max is periodic");
+    EXPECT_SET_ERROR("domain.faces.z_max.velocity=[1e-3, 0, 1e-4]",
+                     "domain.faces.z_max.velocity = [0.001, 0, 0.0001]: a moving wall moves in its own plane, but "
+                     "the normal (z) component is 0.0001; allowed: z component = 0");
+    EXPECT_SET_ERROR("domain.faces.z_min={type: velocity_inlet, velocity: [0, 0, -1e-3], profile: parabolic}",
+                     "domain.faces.z_min.velocity = [0, 0, -0.001]: an inlet on z_min must point into the domain; "
+                     "allowed: z component > 0");
+    EXPECT_SET_ERROR("domain.faces.z_max={type: velocity_inlet, velocity: [0, 0, 1e-3]}",
+                     "domain.faces.z_max.velocity = [0, 0, 0.001]: an inlet on z_max must point into the domain; "
+                     "allowed: z component < 0");
+    EXPECT_SET_ERROR("domain.faces.z_max={type: moving_wall}",
+                     "domain.faces.z_max.velocity: required for a moving_wall face but missing");
+    EXPECT_LINE_ERROR(5, "    z_max: {type: moving_wall, velocity: [1.0e-3, 0, 2]}", "scene.yaml:5: ",
+                      "domain.faces.z_max.velocity = [0.001, 0, 2]", "allowed: z component = 0");
+}
+
+static void test_connections(void)
+{
+    EXPECT_SET_ERROR("connections.0.spheres=[0, 3]",
+                     "connections.0.spheres = [0, 3]: sphere index 3 does not exist; allowed: integers in [0, 2]");
+    EXPECT_SET_ERROR("connections.0.spheres=[-1, 1]", "sphere index -1 does not exist");
+    EXPECT_SET_ERROR("connections.0.spheres=[0.5, 1]", "sphere index 0.5 does not exist");
+    EXPECT_SET_ERROR("connections.0.spheres=[1, 1]",
+                     "connections.0.spheres = [1, 1]: a sphere cannot be connected to itself; allowed: two different");
+    EXPECT_SET_ERROR("connections=[{spheres: [0, 1]}, {spheres: [1, 0]}]",
+                     "connections.1.spheres = [1, 0]: the pair is already connected by connections.0");
+    EXPECT_LINE_ERROR(23, "  - {spheres: [0, 9], max_normal: 1.0e-6}", "scene.yaml:23: connections.0.spheres = [0, 9]",
+                      "allowed: integers in [0, 2]", "the scene has 3 spheres");
+}
+
+static void test_spheres_in_domain(void)
+{
+    /* z has walls: the sphere must be fully inside */
+    EXPECT_SET_ERROR("bodies.1.spheres.0.center=[2e-4, 2e-4, 1.95e-3]",
+                     "bodies.1.spheres.0.center = [0.0002, 0.0002, 0.00195] with radius 0.0001 (sphere 2) reaches "
+                     "outside the walls along z: [0.00185, 0.00205]; allowed: z in [0.0001, 0.0019]");
+    EXPECT_SET_ERROR("bodies.0.spheres.0.center=[5e-4, 5e-4, 5e-5]", "reaches outside the walls along z",
+                     "allowed: z in [0.0001, 0.0019]");
+    /* x is periodic: only the centre must be inside */
+    EXPECT_SET_ERROR("bodies.1.spheres.0.center=[1.2e-3, 2e-4, 1.5e-3]",
+                     "bodies.1.spheres.0.center = [0.0012, 0.0002, 0.0015] (sphere 2): the x coordinate 0.0012 is "
+                     "outside the periodic domain; allowed: x in [0, 0.001)");
+    EXPECT_SET_ERROR("bodies.1.spheres.0.radius=6e-4", "diameter 0.0012 m exceeds the periodic length 0.001 m");
+    capture_t cap;
+    scene_t *s = NULL;
+    const char *const ov[] = {"bodies.1.spheres.0.center=[0, 0, 1.5e-3]"}; /* cut by two periodic faces: fine */
+    CU_ASSERT_EQUAL(load(BASE, ov, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL(s);
+    scene_free(s);
+    EXPECT_LINE_ERROR(21, "      - {center: [2.0e-4, 2.0e-4, 1.95e-3], radius: 1.0e-4}",
+                      "scene.yaml:21: bodies.1.spheres.0.center", "reaches outside the walls", "error");
+}
+
+static void test_overlap(void)
+{
+    EXPECT_SET_ERROR("bodies.1.spheres.0.center=[6e-4, 6e-4, 6e-4]",
+                     "bodies.1.spheres.0.center = [0.0006, 0.0006, 0.0006] (sphere 2, body 1) overlaps sphere 0 of "
+                     "body 0",
+                     "allowed: distance >= sum of radii for spheres of different bodies");
+    /* nearest periodic image: x = 0.95e-3 is 0.1e-3 from x = 0.05e-3 */
+    const char *const ov[] = {"bodies.0.spheres=[{center: [0.5e-4, 5e-4, 5e-4], radius: 1e-4}]",
+                              "bodies.1.spheres.0.center=[9.5e-4, 5e-4, 5e-4]", "connections=[]"};
+    EXPECT_ERROR(BASE, ov, 3, "overlaps sphere 0 of body 0", "centre distance 0.0001 m < sum of radii 0.0002 m");
+    /* spheres of one body may overlap (sintered): the base scene has that */
+}
+
+static void test_radius_cells(void)
+{
+    EXPECT_SET_ERROR("bodies.0.spheres.1.radius=3e-5",
+                     "bodies.0.spheres.1.radius = 3e-05 m is 1.2 cells of fluid.dx = 2.5e-05 m (sphere 1); allowed: "
+                     "at least 1.5 cells = 3.75e-05 m");
+    capture_t cap;
+    scene_t *s = NULL;
+    const char *const ov[] = {"bodies.0.spheres.1.radius=3.75e-5"}; /* exactly 1.5 cells: accepted */
+    CU_ASSERT_EQUAL(load(BASE, ov, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL(s);
+    scene_free(s);
+}
+
+static void test_prescribed_speed(void)
+{
+    const char *const ov[] = {"bodies.0.motion=prescribed", "bodies.0.angular_velocity=[0, 0, 2000]"};
+    EXPECT_ERROR(BASE, ov, 2, "bodies.0.velocity = [0, 0, 0] with angular velocity [0, 0, 2000]",
+                 "cells per step; allowed: at most 0.5 cells per step = 0.2 m/s");
+}
+
+/* All violations are reported, not only the first. */
+static void test_many_errors(void)
+{
+    const char *const ov[] = {"fluid.tau=0.4", "bodies.0.density=0", "contacts.friction=-1"};
+    capture_t *cap = malloc(sizeof *cap);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(cap);
+    scene_t *s = NULL;
+    CU_ASSERT_EQUAL(load(BASE, ov, 3, cap, &s), STATUS_ERROR);
+    CU_ASSERT_PTR_NULL(s);
+    CU_ASSERT_EQUAL(cap->nerrors, 3);
+    assert_contains(cap, "fluid.tau = 0.4", __LINE__);
+    assert_contains(cap, "bodies.0.density = 0", __LINE__);
+    assert_contains(cap, "contacts.friction = -1", __LINE__);
+    free(cap);
+}
+
+/* Two loads of the same file give the same struct: no hidden state. */
+static void test_repeatable(void)
+{
+    capture_t cap;
+    scene_t *a = NULL, *b = NULL;
+    CU_ASSERT_EQUAL(load(BASE, NULL, 0, &cap, &a), STATUS_OK);
+    CU_ASSERT_EQUAL(load(BASE, NULL, 0, &cap, &b), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(a);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(b);
+    CU_ASSERT_STRING_EQUAL(a->text, b->text);
+    CU_ASSERT_DOUBLE_EQUAL(a->fluid.dt, b->fluid.dt, 0);
+    CU_ASSERT_EQUAL(memcmp(&a->domain, &b->domain, sizeof a->domain), 0);
+    scene_free(a);
+    scene_free(b);
+    scene_free(NULL);
+}
+
+void scene_register_tests(void)
+{
+    static const struct {
+        const char *name;
+        CU_TestFunc fn;
+    } valid[] = {
+        {"base scene", test_base_scene},
+        {"defaults", test_defaults},
+        {"derived dx and tau", test_derived},
+        {"overrides", test_overrides},
+        {"warnings", test_warnings},
+        {"repeatable", test_repeatable},
+    },
+      bad[] = {
+          {"missing file", test_missing_file},
+          {"YAML syntax error", test_syntax_error},
+          {"empty and multi-document", test_empty_and_multi_document},
+          {"unknown key", test_unknown_key},
+          {"missing key", test_missing_key},
+          {"wrong type", test_wrong_type},
+          {"bad override", test_bad_override},
+          {"out of range", test_out_of_range},
+          {"dx/cells_per_radius, tau/dt", test_resolution_exclusive},
+          {"domain not divisible by dx", test_not_divisible},
+          {"faces", test_faces},
+          {"connections", test_connections},
+          {"spheres in domain", test_spheres_in_domain},
+          {"overlapping bodies", test_overlap},
+          {"radius in cells", test_radius_cells},
+          {"prescribed speed", test_prescribed_speed},
+          {"many errors", test_many_errors},
+      };
+    CU_pSuite s1 = CU_add_suite("scene: valid input", NULL, NULL);
+    CU_pSuite s2 = CU_add_suite("scene: bad input", NULL, NULL);
+    if (s1 == NULL || s2 == NULL) {
+        return;
+    }
+    for (size_t i = 0; i < sizeof valid / sizeof valid[0]; i++) {
+        if (CU_add_test(s1, valid[i].name, valid[i].fn) == NULL) {
+            return;
+        }
+    }
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        if (CU_add_test(s2, bad[i].name, bad[i].fn) == NULL) {
+            return;
+        }
+    }
+}

@@ -1,0 +1,10 @@
+/* fluid_tests.h — registration of the fluid component's CUnit suites. */
+#ifndef TESTS_FLUID_TESTS_H
+#define TESTS_FLUID_TESTS_H
+
+void fluid_register_tests(int validate);
+void lattice_register_tests(void);
+void kernel_register_tests(void);
+void flows_register_tests(int validate);
+
+#endif

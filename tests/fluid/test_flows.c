@@ -1,0 +1,281 @@
+/* test_flows.c — the fluid against analytic flows.
+ *
+ * - conservation of mass and momentum in a periodic box;
+ * - body-force driven plane Poiseuille flow between half-way bounce-back
+ *   walls: with TRT and the magic parameter 3/16 the parabola is exact for
+ *   every tau (Ginzburg & d'Humieres, Phys. Rev. E 68 (2003) 066614;
+ *   Ginzburg, Verhaeghe & d'Humieres, Commun. Comput. Phys. 3 (2008) 427);
+ *   with BGK the wall slips by a tau-dependent amount, an error that falls
+ *   as H^-2 (He, Zou, Luo & Dembo, J. Stat. Phys. 87 (1997) 115);
+ * - plane Couette flow: the linear profile is exact;
+ * - 2D Taylor–Green vortex decay, u ~ exp(-2 nu k^2 t): the viscosity is
+ *   recovered with second-order convergence;
+ * - a channel with a parabolic velocity inlet and a pressure outlet: the
+ *   profile holds along the channel and dp/dx = -8 mu U / H^2 (plane
+ *   Poiseuille, e.g. White, Viscous Fluid Flow, 3rd ed., Eq. 3-39). */
+#include "fluid_tests.h"
+#include "test_util.h"
+
+#include "../../fluid/lattice.h"
+
+#include <CUnit/CUnit.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#define PI 3.14159265358979323846
+
+static void test_conservation_periodic(void)
+{
+    const collision_t ops[2] = {COLLISION_TRT, COLLISION_BGK};
+    for (int k = 0; k < 2; k++) {
+        scene_t s = test_box(16, 12, 10, 0.8, ops[k]);
+        fluid_t *fl = test_fluid(&s);
+        const int n = 16 * 12 * 10;
+        double *rho = malloc(sizeof(double) * n), *u = malloc(sizeof(double) * 3 * n);
+        srand(7);
+        for (int i = 0; i < n; i++) {
+            rho[i] = 1.0 + 0.01 * ((double)rand() / RAND_MAX - 0.5);
+            u[3 * i] = 0.02 + 0.02 * ((double)rand() / RAND_MAX - 0.5);
+            u[3 * i + 1] = -0.01 + 0.02 * ((double)rand() / RAND_MAX - 0.5);
+            u[3 * i + 2] = 0.015 + 0.02 * ((double)rand() / RAND_MAX - 0.5);
+        }
+        fluid_set_equilibrium_lattice(fl, rho, u);
+        double m0, j0[3], m1, j1[3];
+        fluid_totals_lattice(fl, &m0, j0);
+        test_run(fl, 1000);
+        fluid_totals_lattice(fl, &m1, j1);
+        CU_ASSERT(fabs(m1 - m0) < 1e-12 * m0);
+        const double jn = sqrt(j0[0] * j0[0] + j0[1] * j0[1] + j0[2] * j0[2]);
+        for (int a = 0; a < 3; a++) {
+            CU_ASSERT(fabs(j1[a] - j0[a]) < 1e-12 * jn);
+        }
+        CU_ASSERT_EQUAL(fluid_check(fl, 0.3), STATUS_OK);
+        free(rho);
+        free(u);
+        fluid_free(fl);
+    }
+}
+
+enum { POISEUILLE, COUETTE, HALF_CHANNEL };
+
+/* Runs a 1 x 1 x h channel (walls at z) to steady state and returns the
+ * largest error relative to the peak of the analytic profile. HALF_CHANNEL:
+ * no-slip at z_min, free-slip at z_max, the lower half of a channel 2h wide
+ * (specular reflection is the mirror image of the flow). */
+static double channel_error(collision_t op, double tau, int h, int kind)
+{
+    const int couette = kind == COUETTE;
+    scene_t s = test_box(1, 1, h, tau, op);
+    const double nu = (tau - 0.5) / 3.0, umax = 0.01;
+    s.domain.faces[4].type = FACE_NO_SLIP;
+    if (couette) {
+        s.domain.faces[5].type = FACE_MOVING_WALL;
+        s.domain.faces[5].velocity[0] = umax;
+    } else if (kind == HALF_CHANNEL) {
+        s.domain.faces[5].type = FACE_FREE_SLIP;
+        s.fluid.body_force[0] = 2.0 * nu * umax / ((double)h * h);
+    } else {
+        s.domain.faces[5].type = FACE_NO_SLIP;
+        s.fluid.body_force[0] = 8.0 * nu * umax / ((double)h * h);
+    }
+    fluid_t *fl = test_fluid(&s);
+    /* 40 e-folds of the slowest mode, time scale h^2 / (pi^2 nu) (4 h^2 for the half channel) */
+    test_run(fl, (long)((kind == HALF_CHANNEL ? 160.0 : 40.0) * h * h / (PI * PI * nu)) + 100);
+    double *u = malloc(sizeof(double) * 3 * h);
+    fluid_moments_lattice(fl, NULL, u);
+    double err = 0.0;
+    for (int k = 0; k < h; k++) {
+        const double xi = k + 0.5;
+        const double ref = couette                ? umax * xi / h
+                           : kind == HALF_CHANNEL ? umax * xi * (2.0 * h - xi) / ((double)h * h)
+                                                  : 4.0 * umax * xi * (h - xi) / ((double)h * h);
+        err = fmax(err, fabs(u[3 * k] - ref) / umax);
+        err = fmax(err, fabs(u[3 * k + 1]) / umax + fabs(u[3 * k + 2]) / umax);
+    }
+    free(u);
+    fluid_free(fl);
+    return err;
+}
+
+static void test_poiseuille_trt_exact(void)
+{
+    const double taus[3] = {0.6, 1.0, 2.0};
+    for (int i = 0; i < 3; i++) {
+        const double e = channel_error(COLLISION_TRT, taus[i], 12, POISEUILLE);
+        CU_ASSERT(e < 1e-10);
+        if (!(e < 1e-10)) {
+            printf("\n  TRT Poiseuille tau %g: max relative error %.3e\n", taus[i], e);
+        }
+    }
+}
+
+static void test_poiseuille_bgk_second_order(void)
+{
+    const double e8 = channel_error(COLLISION_BGK, 1.5, 8, POISEUILLE);
+    const double e16 = channel_error(COLLISION_BGK, 1.5, 16, POISEUILLE);
+    const double e32 = channel_error(COLLISION_BGK, 1.5, 32, POISEUILLE);
+    /* the BGK wall slip is a real error at tau = 1.5 */
+    CU_ASSERT(e8 > 1e-3);
+    const double p1 = log(e8 / e16) / log(2.0), p2 = log(e16 / e32) / log(2.0);
+    CU_ASSERT(p1 > 1.9 && p1 < 2.1);
+    CU_ASSERT(p2 > 1.9 && p2 < 2.1);
+    if (!(p1 > 1.9 && p2 > 1.9)) {
+        printf("\n  BGK Poiseuille errors %.3e %.3e %.3e orders %.3f %.3f\n", e8, e16, e32, p1, p2);
+    }
+}
+
+static void test_couette_linear(void)
+{
+    CU_ASSERT(channel_error(COLLISION_TRT, 0.8, 16, COUETTE) < 1e-10);
+    CU_ASSERT(channel_error(COLLISION_BGK, 1.3, 16, COUETTE) < 1e-10);
+}
+
+static void test_free_slip_half_channel(void)
+{
+    CU_ASSERT(channel_error(COLLISION_TRT, 0.7, 10, HALF_CHANNEL) < 1e-10);
+    CU_ASSERT(channel_error(COLLISION_TRT, 1.6, 10, HALF_CHANNEL) < 1e-10);
+}
+
+/* Free-slip walls on the y and z faces, periodic in x: a body force along x
+ * accelerates the fluid as a plug, its momentum grows by exactly F V per
+ * step (no wall friction), and nothing flows across the walls. */
+static void test_free_slip_box_plug_flow(void)
+{
+    scene_t s = test_box(6, 5, 4, 0.9, COLLISION_TRT);
+    for (int f = 2; f < 6; f++) {
+        s.domain.faces[f].type = FACE_FREE_SLIP;
+    }
+    s.fluid.body_force[0] = 1e-6;
+    fluid_t *fl = test_fluid(&s);
+    double m0, j0[3], m1, j1[3];
+    fluid_totals_lattice(fl, &m0, j0);
+    test_run(fl, 500);
+    fluid_totals_lattice(fl, &m1, j1);
+    const double v = 6 * 5 * 4;
+    CU_ASSERT(fabs(m1 - m0) < 1e-12 * m0);
+    CU_ASSERT(fabs(j1[0] - 500 * v * 1e-6) < 1e-12);
+    CU_ASSERT(fabs(j1[1]) < 1e-14);
+    CU_ASSERT(fabs(j1[2]) < 1e-14);
+    double *u = malloc(sizeof(double) * 3 * 120);
+    fluid_moments_lattice(fl, NULL, u);
+    for (int i = 0; i < 120; i++) {
+        CU_ASSERT(fabs(u[3 * i] - u[0]) < 1e-12); /* a plug: no shear at free-slip walls */
+    }
+    free(u);
+    fluid_free(fl);
+}
+
+/* Measured viscosity of a decaying Taylor–Green vortex on an n x n grid. */
+static double taylor_green_nu(int n, double tau)
+{
+    scene_t s = test_box(n, n, 1, tau, COLLISION_TRT);
+    fluid_t *fl = test_fluid(&s);
+    const double k = 2.0 * PI / n, u0 = 0.02 * 32.0 / n; /* diffusive scaling */
+    const double nu = (tau - 0.5) / 3.0;
+    double *rho = malloc(sizeof(double) * n * n), *u = malloc(sizeof(double) * 3 * n * n);
+    for (int y = 0; y < n; y++) {
+        for (int x = 0; x < n; x++) {
+            const int i = x + n * y;
+            const double X = x + 0.5, Y = y + 0.5;
+            u[3 * i] = -u0 * cos(k * X) * sin(k * Y);
+            u[3 * i + 1] = u0 * sin(k * X) * cos(k * Y);
+            u[3 * i + 2] = 0.0;
+            rho[i] = 1.0 - 3.0 * 0.25 * u0 * u0 * (cos(2 * k * X) + cos(2 * k * Y));
+        }
+    }
+    fluid_set_equilibrium_lattice(fl, rho, u);
+    const double td = 1.0 / (2.0 * nu * k * k); /* energy decay time */
+    const long t1 = (long)(0.2 * td), t2 = (long)(1.2 * td);
+    double e[2];
+    test_run(fl, t1);
+    for (int m = 0; m < 2; m++) {
+        fluid_moments_lattice(fl, NULL, u);
+        e[m] = 0.0;
+        for (int i = 0; i < n * n; i++) {
+            e[m] += u[3 * i] * u[3 * i] + u[3 * i + 1] * u[3 * i + 1];
+        }
+        if (m == 0) {
+            test_run(fl, t2 - t1);
+        }
+    }
+    free(rho);
+    free(u);
+    fluid_free(fl);
+    const double measured = -log(e[1] / e[0]) / (2.0 * 2.0 * k * k * (double)(t2 - t1));
+    return measured / nu - 1.0;
+}
+
+static void test_taylor_green(void)
+{
+    const double e32 = taylor_green_nu(32, 0.8), e64 = taylor_green_nu(64, 0.8);
+    CU_ASSERT(fabs(e32) < 0.01);
+    CU_ASSERT(fabs(e32) / fabs(e64) >= 3.5);
+    if (!(fabs(e32) < 0.01 && fabs(e32) / fabs(e64) >= 3.5)) {
+        printf("\n  Taylor-Green relative viscosity error %.3e (32) %.3e (64)\n", e32, e64);
+    }
+}
+
+static void test_inlet_outlet_channel(void)
+{
+    const int h = 32, l = 128;
+    const double tau = 0.9, nu = (tau - 0.5) / 3.0, U = 0.01;
+    scene_t s = test_box(l, 1, h, tau, COLLISION_TRT);
+    s.domain.faces[0].type = FACE_VELOCITY_INLET;
+    s.domain.faces[0].profile = PROFILE_PARABOLIC;
+    s.domain.faces[0].velocity[0] = U;
+    s.domain.faces[1].type = FACE_PRESSURE_OUTLET;
+    s.domain.faces[1].pressure = 0.0;
+    s.domain.faces[4].type = FACE_NO_SLIP;
+    s.domain.faces[5].type = FACE_NO_SLIP;
+    fluid_t *fl = test_fluid(&s);
+    test_run(fl, (long)(8.0 * h * h / nu));
+    const int n = l * h;
+    double *rho = malloc(sizeof(double) * n), *u = malloc(sizeof(double) * 3 * n);
+    fluid_moments_lattice(fl, rho, u);
+    double perr = 0.0;
+    const int sections[3] = {l / 4, l / 2, 3 * l / 4};
+    for (int i = 0; i < 3; i++) {
+        for (int z = 0; z < h; z++) {
+            const double xi = z + 0.5, ref = 4.0 * U * xi * (h - xi) / ((double)h * h);
+            perr = fmax(perr, fabs(u[3 * (sections[i] + l * z)] - ref) / U);
+        }
+    }
+    /* pressure drop between the first and last section, averaged over z */
+    double r1 = 0.0, r2 = 0.0;
+    for (int z = 0; z < h; z++) {
+        r1 += rho[sections[0] + l * z] / h;
+        r2 += rho[sections[2] + l * z] / h;
+    }
+    const double dp = LB_CS2 * (r1 - r2), dx = sections[2] - sections[0];
+    const double ref = 8.0 * nu * U / ((double)h * h) * dx;
+    CU_ASSERT(perr < 0.01);
+    CU_ASSERT(fabs(dp / ref - 1.0) < 0.01);
+    if (!(perr < 0.01 && fabs(dp / ref - 1.0) < 0.01)) {
+        printf("\n  channel: profile error %.3e, pressure drop %.6e vs %.6e\n", perr, dp, ref);
+    }
+    free(rho);
+    free(u);
+    fluid_free(fl);
+}
+
+void flows_register_tests(int validate)
+{
+    (void)validate;
+    CU_pSuite s = CU_add_suite("flows", NULL, NULL);
+    CU_add_test(s, "mass and momentum conserved in a periodic box", test_conservation_periodic);
+    CU_add_test(s, "TRT Poiseuille exact for tau 0.6, 1, 2", test_poiseuille_trt_exact);
+    CU_add_test(s, "BGK Poiseuille converges at second order", test_poiseuille_bgk_second_order);
+    CU_add_test(s, "Couette flow linear", test_couette_linear);
+    CU_add_test(s, "free-slip wall: half channel exact (TRT)", test_free_slip_half_channel);
+    CU_add_test(s, "free-slip box: plug flow, momentum F V t", test_free_slip_box_plug_flow);
+    CU_add_test(s, "Taylor-Green viscosity, second order", test_taylor_green);
+    CU_add_test(s, "inlet/outlet channel: profile and pressure drop", test_inlet_outlet_channel);
+}
+
+void fluid_register_tests(int validate)
+{
+    lattice_register_tests();
+    kernel_register_tests();
+    flows_register_tests(validate);
+}

@@ -1,0 +1,136 @@
+/* test_kernel.c — the fused kernel against a plain reference kernel.
+ *
+ * The reference is written the textbook way, direction by direction with
+ * the equilibrium of Eq. 4 and Guo's forcing term (Guo, Zheng & Shi, Phys.
+ * Rev. E 65 (2002) 046308) split into symmetric and antisymmetric parts for
+ * TRT (Ginzburg 2005), and it streams by wrapping periodic coordinates
+ * itself instead of using ghost cells. The fused kernel plus the boundary
+ * stage must give the same populations to round-off. */
+#include "fluid_tests.h"
+#include "test_util.h"
+
+#include "../../fluid/fluid_internal.h"
+#include "../../fluid/lattice.h"
+
+#include <CUnit/CUnit.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int wrap(int i, int n) { return ((i - 1) % n + n) % n + 1; }
+
+static void reference_step(const grid_t *g, const kernel_params_t *p, const double *src, double *dst)
+{
+    const size_t N = g->ncells;
+    for (int z = 1; z <= g->n[2]; z++) {
+        for (int y = 1; y <= g->n[1]; y++) {
+            for (int x = 1; x <= g->n[0]; x++) {
+                double f[LB_Q], rho = 0.0, j[3] = {0, 0, 0};
+                for (int q = 0; q < LB_Q; q++) {
+                    const int xs = wrap(x - lb_c[q][0], g->n[0]), ys = wrap(y - lb_c[q][1], g->n[1]),
+                              zs = wrap(z - lb_c[q][2], g->n[2]);
+                    f[q] = src[(size_t)q * N + grid_index(g, xs, ys, zs)];
+                    rho += f[q];
+                    for (int a = 0; a < 3; a++) {
+                        j[a] += lb_c[q][a] * f[q];
+                    }
+                }
+                double u[3];
+                for (int a = 0; a < 3; a++) {
+                    u[a] = (j[a] + 0.5 * p->force[a]) / rho;
+                }
+                double feq[LB_Q], s[LB_Q];
+                for (int q = 0; q < LB_Q; q++) {
+                    feq[q] = lb_feq(q, rho, u[0], u[1], u[2]);
+                    double cu = 0.0, cf = 0.0, uf = 0.0;
+                    for (int a = 0; a < 3; a++) {
+                        cu += lb_c[q][a] * u[a];
+                        cf += lb_c[q][a] * p->force[a];
+                        uf += u[a] * p->force[a];
+                    }
+                    s[q] = lb_w[q] * (3.0 * (cf - uf) + 9.0 * cu * cf);
+                }
+                const size_t i = grid_index(g, x, y, z);
+                for (int q = 0; q < LB_Q; q++) {
+                    const int o = lb_opposite(q);
+                    const double fp = 0.5 * (f[q] + f[o]), fm = 0.5 * (f[q] - f[o]);
+                    const double ep = 0.5 * (feq[q] + feq[o]), em = 0.5 * (feq[q] - feq[o]);
+                    const double sp = 0.5 * (s[q] + s[o]), sm = 0.5 * (s[q] - s[o]);
+                    dst[(size_t)q * N + i] = f[q] - p->omega_plus * (fp - ep) - p->omega_minus * (fm - em) +
+                                             (1.0 - 0.5 * p->omega_plus) * sp + (1.0 - 0.5 * p->omega_minus) * sm;
+                }
+            }
+        }
+    }
+}
+
+static void compare(collision_t collision, double tau, int nx, int ny, int nz)
+{
+    scene_t s = test_box(nx, ny, nz, tau, collision);
+    s.fluid.body_force[0] = 1.3e-5;
+    s.fluid.body_force[1] = -0.7e-5;
+    s.fluid.body_force[2] = 2.1e-5;
+    fluid_t *fl = test_fluid(&s);
+    const grid_t *g = &fl->g;
+    double *f = fluid_populations(fl);
+    srand(12345);
+    for (int z = 1; z <= g->n[2]; z++) {
+        for (int y = 1; y <= g->n[1]; y++) {
+            for (int x = 1; x <= g->n[0]; x++) {
+                for (int q = 0; q < LB_Q; q++) {
+                    f[(size_t)q * g->ncells + grid_index(g, x, y, z)] =
+                        lb_w[q] * (1.0 + 0.1 * ((double)rand() / RAND_MAX - 0.5));
+                }
+            }
+        }
+    }
+    const size_t bytes = (size_t)LB_Q * g->ncells * sizeof(double);
+    double *src = malloc(bytes), *ref = malloc(bytes);
+    CU_ASSERT_FATAL(src != NULL && ref != NULL);
+    memcpy(src, f, bytes);
+    memset(ref, 0, bytes);
+    reference_step(g, &fl->kp, src, ref);
+    fluid_step(fl);
+    const double *out = fluid_populations(fl);
+    double maxdiff = 0.0;
+    for (int z = 1; z <= g->n[2]; z++) {
+        for (int y = 1; y <= g->n[1]; y++) {
+            for (int x = 1; x <= g->n[0]; x++) {
+                for (int q = 0; q < LB_Q; q++) {
+                    const size_t k = (size_t)q * g->ncells + grid_index(g, x, y, z);
+                    maxdiff = fmax(maxdiff, fabs(out[k] - ref[k]));
+                }
+            }
+        }
+    }
+    /* populations are O(0.1): round-off of a few ulp */
+    CU_ASSERT(maxdiff < 1e-15);
+    CU_ASSERT(maxdiff >= 0.0);
+    free(src);
+    free(ref);
+    fluid_free(fl);
+}
+
+static void test_fused_equals_reference_trt(void) { compare(COLLISION_TRT, 0.73, 70, 5, 4); }
+static void test_fused_equals_reference_bgk(void) { compare(COLLISION_BGK, 1.7, 13, 6, 7); }
+
+/* Lambda = (1/w+ - 1/2)(1/w- - 1/2) must come out as the requested magic
+ * parameter (Ginzburg, Verhaeghe & d'Humieres 2008). */
+static void test_magic_parameter(void)
+{
+    const double taus[] = {0.51, 0.6, 1.0, 2.0, 5.0};
+    for (int i = 0; i < 5; i++) {
+        const double wp = 1.0 / taus[i];
+        const double wm = kernel_omega_minus(wp, 3.0 / 16.0);
+        CU_ASSERT_DOUBLE_EQUAL((1.0 / wp - 0.5) * (1.0 / wm - 0.5), 3.0 / 16.0, 1e-14);
+        CU_ASSERT(wm > 0.0 && wm < 2.0);
+    }
+}
+
+void kernel_register_tests(void)
+{
+    CU_pSuite s = CU_add_suite("kernel", NULL, NULL);
+    CU_add_test(s, "fused TRT kernel equals the reference kernel", test_fused_equals_reference_trt);
+    CU_add_test(s, "fused BGK kernel equals the reference kernel", test_fused_equals_reference_bgk);
+    CU_add_test(s, "TRT magic parameter", test_magic_parameter);
+}

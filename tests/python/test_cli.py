@@ -1,0 +1,152 @@
+"""The coupler command line on fluid-only scenes: check, run, output, bad input.
+
+Bad input must end with a message that names the file, the key and the
+allowed range, a non-zero exit, and nothing written (DESIGN section 3, 4)."""
+import xml.etree.ElementTree as ET
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import MODELS, run
+
+
+def test_check_prints_lattice_parameters(coupler):
+    p = run("check", MODELS / "channel_poiseuille.yaml")
+    assert p.returncode == 0, p.stderr
+    for word in ("tau", "lattice viscosity", "Mach", "Reynolds", "steps", "memory"):
+        assert word in p.stdout
+    # tau 0.8 -> nu_lat = 0.1; dt = nu_lat dx^2 / nu = 0.1 * (2.5e-5)^2 / 1e-6
+    assert "6.25e-05" in p.stdout
+
+
+def test_check_warns_on_high_mach(coupler):
+    p = run("check", MODELS / "channel_poiseuille.yaml", "--set", "fluid.body_force=[8000, 0, 0]")
+    assert p.returncode == 0
+    assert "Mach" in p.stderr and "warning" in p.stderr
+
+
+def test_set_override_changes_tau(coupler):
+    p = run("check", MODELS / "channel_poiseuille.yaml", "--set", "fluid.tau=1.1")
+    assert p.returncode == 0, p.stderr
+    assert "1.1" in p.stdout.split("tau", 1)[1].splitlines()[0]
+
+
+def test_run_poiseuille_matches_analytic(coupler, tmp_path):
+    out = tmp_path / "p.h5"
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f:
+        t = f["/time"][:]
+        assert t[0] == 0.0 and abs(t[-1] - 3.0) < 1e-9
+        assert np.all(np.diff(t) > 0)
+        mass = f["/fluid/mass"][:]
+        assert abs(mass[-1] / mass[0] - 1) < 1e-10  # round-off over 48000 steps
+        assert f.attrs["tau"] == pytest.approx(0.8)
+        assert "fluid:" in f.attrs["scene"].decode() if isinstance(f.attrs["scene"], bytes) else f.attrs["scene"]
+        assert "fields" not in f  # not asked for
+    line = [l for l in p.stdout.splitlines() if "Poiseuille" in l][0]
+    rel = float(line.split("relative difference")[1].strip(" ()"))
+    assert abs(rel) < 1e-8  # TRT + magic 3/16: exact parabola
+
+
+def test_fields_and_xdmf(coupler, tmp_path):
+    out = tmp_path / "cavity.h5"
+    p = run("run", MODELS / "lid_driven_cavity.yaml", "-o", out, "--quiet", "--set", "run.end_time=0.02",
+            "--set", "run.field_interval=0.01", "--set", "domain.size=[5e-4,5e-4,5e-4]")
+    assert p.returncode == 0, p.stderr
+    xmf = tmp_path / "cavity.xmf"
+    root = ET.parse(xmf).getroot()
+    items = [d.text.split(":")[1] for d in root.iter("DataItem") if d.get("Format") == "HDF"]
+    assert len(items) == 3 * 3  # t = 0, 0.01, 0.02: density, velocity, flags
+    with h5py.File(out, "r") as f:
+        for path in items:
+            assert path in f
+        v = f[items[-2]][:]
+        assert v.shape == (20, 20, 20, 3)
+        # the lid drives +x flow in the top layer, return flow below
+        assert v[-1, :, :, 0].mean() > 0 and v[5, :, :, 0].mean() < 0
+
+
+def test_inlet_outlet_pressure_drop(coupler, tmp_path):
+    out = tmp_path / "ch.h5"
+    p = run("run", MODELS / "channel_inlet_outlet.yaml", "-o", out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f:
+        last = sorted(f["/fields"].keys())[-1]
+        rho = f[f"/fields/{last}/density"][:]  # [z, y, x]
+        u = f[f"/fields/{last}/velocity"][:]
+        dx = f.attrs["dx"]
+        dt = f.attrs["dt"]
+    cs2 = (dx / dt) ** 2 / 3.0
+    nx = rho.shape[2]
+    i1, i2 = nx // 4, 3 * nx // 4
+    dp = cs2 * (rho[:, 0, i1].mean() - rho[:, 0, i2].mean())
+    mu = 1e-3
+    ref = 8 * mu * 2.0e-3 / (8.0e-4) ** 2 * (i2 - i1) * dx
+    assert dp == pytest.approx(ref, rel=0.01)
+    h = rho.shape[0]
+    z = (np.arange(h) + 0.5) / h
+    assert np.max(np.abs(u[:, 0, nx // 2, 0] - 2.0e-3 * 4 * z * (1 - z))) < 0.01 * 2.0e-3
+
+
+BAD = [
+    # (override, words the message must contain)
+    ("fluid.tau=0.5", ["fluid.tau", "0.5"]),
+    ("fluid.tau=abc", ["fluid.tau"]),
+    ("fluid.viscosity=-1", ["fluid.viscosity", "-1"]),
+    ("fluid.unknown_key=1", ["unknown_key"]),
+    ("domain.size=[1.0e-4, 1.0e-4, 1.01e-3]", ["domain.size", "dx"]),
+    ("domain.faces.x_min.type=no_slip", ["x_min", "periodic"]),
+    ("fluid.collision=lbgk", ["fluid.collision", "lbgk"]),
+]
+
+
+@pytest.mark.parametrize("override,words", BAD)
+def test_bad_scene_values(coupler, tmp_path, override, words):
+    out = tmp_path / "keep.h5"
+    out.write_bytes(b"precious")
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", out, "--set", override)
+    assert p.returncode != 0
+    assert "channel_poiseuille.yaml" in p.stderr
+    for w in words:
+        assert w in p.stderr, p.stderr
+    assert out.read_bytes() == b"precious"  # nothing written
+
+
+def test_missing_key_and_syntax_error(coupler, tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("domain:\n  size: [1e-3, 1e-3, 1e-3]\nfluid:\n  density: 1000\n  dx: 1e-4\n  tau: 0.8\n"
+                   "run:\n  end_time: 1\n")
+    p = run("check", bad)
+    assert p.returncode != 0 and "viscosity" in p.stderr and "bad.yaml" in p.stderr
+    bad.write_text("domain: [\n")
+    p = run("check", bad)
+    assert p.returncode != 0 and "bad.yaml" in p.stderr and "line" in p.stderr
+
+
+def test_cli_usage_errors(coupler, tmp_path):
+    assert run().returncode == 2
+    assert run("frobnicate").returncode == 2
+    p = run("run", MODELS / "channel_poiseuille.yaml", "--steps", "-3")
+    assert p.returncode == 2 and "--steps" in p.stderr
+    p = run("check", tmp_path / "missing.yaml")
+    assert p.returncode == 1 and "missing.yaml" in p.stderr
+
+
+def test_unwritable_output(coupler, tmp_path):
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", tmp_path / "no" / "such" / "dir.h5", "--steps", "1")
+    assert p.returncode == 1 and "dir.h5" in p.stderr
+
+
+def test_bench_json(coupler):
+    import json
+    p = run("bench", "--size", "24", "--json")
+    assert p.returncode == 0, p.stderr
+    rows = [json.loads(l) for l in p.stdout.splitlines() if l.strip()]
+    assert rows
+    for r in rows:
+        assert set(r) == {"size", "threads", "precision", "streaming", "mlups", "bandwidth_gbs", "limit_mlups",
+                          "ratio"}
+        assert r["size"] == 24 and r["mlups"] > 0
+        assert r["limit_mlups"] == pytest.approx(r["bandwidth_gbs"] * 1e9 / 304 / 1e6, rel=1e-3)

@@ -1,0 +1,40 @@
+/* run_tests.c — the one CUnit driver: registers every suite, runs them with
+ * the basic interface and exits with the number of failures.
+ * `run_tests --validate` adds the long validation suites. */
+#include "common/scene_tests.h"
+#include "fluid/fluid_tests.h"
+
+#include <CUnit/Basic.h>
+#include <string.h>
+
+int main(int argc, char **argv)
+{
+    int validate = 0;
+    const char *only = NULL;
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--validate") == 0) {
+            validate = 1;
+        } else {
+            only = argv[i];
+        }
+    }
+    if (CU_initialize_registry() != CUE_SUCCESS) {
+        return 1;
+    }
+    fluid_register_tests(validate);
+    scene_register_tests();
+    CU_basic_set_mode(CU_BRM_VERBOSE);
+    if (only != NULL) {
+        CU_pSuite s = CU_get_suite(only);
+        if (s == NULL) {
+            CU_cleanup_registry();
+            return 1;
+        }
+        CU_basic_run_suite(s);
+    } else {
+        CU_basic_run_tests();
+    }
+    const unsigned failures = CU_get_number_of_tests_failed() + CU_get_number_of_suites_failed();
+    CU_cleanup_registry();
+    return failures > 255 ? 255 : (int)failures;
+}
