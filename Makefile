@@ -10,16 +10,22 @@ PKGS     := $(HDF5) libcyaml yaml-0.1 cunit
 WERROR   ?= $(if $(CI),-Werror,)
 CFLAGS   := -std=c11 -D_POSIX_C_SOURCE=200809L -O3 -march=native -g -fopenmp -fPIC \
             -Wall -Wextra -Wpedantic $(WERROR) $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
-LDLIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial \
-            -lsundials_sunlinsoldense -lsundials_sunlinsolspgmr -lsundials_sunmatrixdense -lm
+# SUNDIALS 6 on bookworm ships no pkg-config file; libsundials_cvode holds the
+# dense/SPGMR linear solvers and the fixed-point solver too.
+LDLIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial -lm
 SCENE    ?= models/channel_poiseuille.yaml
 
 COMMON_SRC  := common/status.c common/scene.c
-FLUID_SRC   := fluid/lattice.c fluid/kernel.c fluid/walls.c fluid/units.c fluid/fluid.c
-RIGID_SRC   :=
+FLUID_SRC   := fluid/lattice.c fluid/kernel.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
+               fluid/spheres.c fluid/fluid.c
+RIGID_SRC   := rigid/rigid.c rigid/body.c rigid/forces.c rigid/contact.c rigid/integrator_verlet.c \
+               rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c
 COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/output.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c \
-               tests/fluid/test_flows.c tests/common/test_scene.c
+               tests/fluid/test_flows.c tests/fluid/test_spheres.c tests/common/test_scene.c \
+               tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
+               tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
+               tests/rigid/test_input.c
 
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
@@ -57,6 +63,13 @@ validate: deps
 bench: deps
 	@$(MAKE) --no-print-directory all
 	$(BUILD)/coupler bench
+
+$(BUILD)/rigid_report: $(LIB_OBJ) $(call obj,tests/rigid/rigid_report.c)
+	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
+
+report: deps
+	@$(MAKE) --no-print-directory all $(BUILD)/rigid_report
+	$(BUILD)/rigid_report
 
 clean:
 	rm -rf $(BUILD)

@@ -86,6 +86,12 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
                           scene->fluid.initial_velocity[2] / uv};
     init_uniform(fl, 1.0, u0);
     st = walls_build(&fl->walls, &fl->g, scene, &fl->units, log);
+    if (st == STATUS_OK) {
+        st = spheres_init(&fl->spheres, scene, &fl->units, &fl->g, fl->flags, log);
+    }
+    if (st == STATUS_OK) {
+        st = spheres_map(&fl->spheres, &fl->g, fl->flags, fl->f[fl->cur], log);
+    }
     if (st != STATUS_OK) {
         fluid_free(fl);
         return st;
@@ -101,6 +107,7 @@ void fluid_free(fluid_t *fl)
         return;
     }
     walls_free(&fl->walls);
+    spheres_free(&fl->spheres);
     free(fl->flags);
     free(fl->f[1]);
     free(fl->f[0]);
@@ -112,7 +119,17 @@ status_t fluid_step(fluid_t *fl)
 {
     double *src = fl->f[fl->cur];
     double *dst = fl->f[1 - fl->cur];
-    walls_fill(&fl->walls, &fl->g, src);
+    if (fl->spheres.n > 0) {
+        spheres_advance_prescribed(&fl->spheres, &fl->g, fl->step);
+        const status_t st = spheres_map(&fl->spheres, &fl->g, fl->flags, src, &fl->log);
+        if (st != STATUS_OK) {
+            return st;
+        }
+        walls_fill(&fl->walls, &fl->g, src);
+        spheres_fill(&fl->spheres, &fl->g, src);
+    } else {
+        walls_fill(&fl->walls, &fl->g, src);
+    }
     kernel_stream_collide(&fl->g, &fl->kp, src, dst);
     fl->cur = 1 - fl->cur;
     fl->step++;
@@ -137,15 +154,16 @@ size_t fluid_memory_bytes(const fluid_t *fl)
            fl->walls.nlinks * sizeof(ghost_link_t) + 2 * fl->walls.ncopies * sizeof(size_t) + sizeof *fl;
 }
 
-/* Pulled (pre-collision) moments of interior cell (x,y,z): what the next
- * collision sees. Needs the boundary stage done on f. */
-static void pulled_moments(const fluid_t *fl, const double *f, int x, int y, int z, double *rho, double u[3])
+/* Density and velocity of cell i from its post-collision populations: the
+ * collision keeps the density and adds the force F to the momentum, so the
+ * velocity it used is u = (sum c f~ - F/2) / rho (Guo et al. 2002). Needs no
+ * boundary values, and so is exact next to walls and spheres. */
+static void local_moments(const fluid_t *fl, const double *f, size_t i, double *rho, double u[3])
 {
-    const grid_t *g = &fl->g;
-    const size_t i = grid_index(g, x, y, z);
+    const size_t N = fl->g.ncells;
     double r = 0.0, j[3] = {0.0, 0.0, 0.0};
     for (int q = 0; q < LB_Q; q++) {
-        const double v = f[(size_t)q * g->ncells + i - grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2])];
+        const double v = f[(size_t)q * N + i];
         r += v;
         for (int a = 0; a < 3; a++) {
             j[a] += lb_c[q][a] * v;
@@ -153,23 +171,25 @@ static void pulled_moments(const fluid_t *fl, const double *f, int x, int y, int
     }
     *rho = r;
     for (int a = 0; a < 3; a++) {
-        u[a] = (j[a] + 0.5 * fl->kp.force[a]) / r;
+        u[a] = (j[a] - 0.5 * fl->kp.force[a]) / r;
     }
 }
 
 void fluid_moments_lattice(fluid_t *fl, double *rho, double *u)
 {
     const grid_t *g = &fl->g;
-    double *f = fl->f[fl->cur];
-    walls_fill(&fl->walls, g, f);
+    const double *f = fl->f[fl->cur];
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
 #pragma omp parallel for schedule(static)
     for (int z = 0; z < nz; z++) {
         for (int y = 0; y < ny; y++) {
             for (int x = 0; x < nx; x++) {
                 const size_t o = (size_t)x + (size_t)nx * ((size_t)y + (size_t)ny * (size_t)z);
-                double r, v[3];
-                pulled_moments(fl, f, x + 1, y + 1, z + 1, &r, v);
+                const size_t i = grid_index(g, x + 1, y + 1, z + 1);
+                double r = 0.0, v[3] = {0.0, 0.0, 0.0};
+                if (fl->flags[i] == CELL_FLUID) {
+                    local_moments(fl, f, i, &r, v);
+                }
                 if (rho != NULL) {
                     rho[o] = r;
                 }
@@ -304,4 +324,80 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
                    "%s (density %.6g, |u| = %.4g lattice = Mach %.3g, limit Mach %.3g)",
                    fl->path, fl->step, fluid_time(fl), x - 1, y - 1, z - 1, (x - 0.5) * dx, (y - 0.5) * dx,
                    (z - 0.5) * dx, causes[cause], r, umag, umag / sqrt(LB_CS2), mach_limit);
+}
+
+int fluid_nspheres(const fluid_t *fl) { return fl->spheres.n; }
+
+status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[3], const double w[3])
+{
+    sphere_t *p = &fl->spheres.s[i];
+    const units_t *u = &fl->units;
+    double cn[3], moved = 0.0;
+    for (int a = 0; a < 3; a++) {
+        cn[a] = c[a] / u->dx + 0.5;
+        double d = cn[a] - p->c[a];
+        if (fl->spheres.periodic[a]) {
+            d -= fl->g.n[a] * floor(d / fl->g.n[a] + 0.5);
+        }
+        moved += d * d;
+    }
+    moved = sqrt(moved);
+    double speed = 0.0;
+    for (int a = 0; a < 3; a++) {
+        speed += v[a] * v[a];
+    }
+    speed = sqrt(speed) * u->dt / u->dx;
+    const double worst = fmax(moved, speed);
+    if (!(worst <= 1.0)) {
+        return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                       "%s: sphere %d moves %.3g cells in one step at step %ld (limit 1 cell; above half a cell the "
+                       "boundary links cannot follow): reduce dt (fluid.tau) or the velocity",
+                       fl->path, i, worst, fl->step);
+    }
+    status_t st = STATUS_OK;
+    if (worst > 0.5) {
+        st = log_msg(&fl->log, STATUS_WARNING, "fluid",
+                     "%s: sphere %d moves %.3g cells in one step at step %ld (more than half a cell)", fl->path, i,
+                     worst, fl->step);
+    }
+    for (int a = 0; a < 3; a++) {
+        p->c[a] = cn[a];
+        p->v[a] = v[a] * u->dt / u->dx;
+        p->w[a] = w[a] * u->dt;
+        if (fl->spheres.periodic[a]) {
+            p->c[a] = 0.5 + fmod(fmod(p->c[a] - 0.5, fl->g.n[a]) + fl->g.n[a], fl->g.n[a]);
+        }
+    }
+    return st;
+}
+
+void fluid_get_sphere(const fluid_t *fl, int i, double c[3], double v[3], double w[3])
+{
+    const sphere_t *p = &fl->spheres.s[i];
+    const units_t *u = &fl->units;
+    for (int a = 0; a < 3; a++) {
+        c[a] = (p->c[a] - 0.5) * u->dx;
+        v[a] = p->v[a] * u->dx / u->dt;
+        w[a] = p->w[a] / u->dt;
+    }
+}
+
+void fluid_sphere_load(const fluid_t *fl, int i, double force[3], double torque[3])
+{
+    const sphere_t *p = &fl->spheres.s[i];
+    const double fs = units_force(&fl->units), ts = units_torque(&fl->units);
+    const int avg = fl->spheres.averaging && fl->step > 1;
+    for (int a = 0; a < 3; a++) {
+        force[a] = (avg ? 0.5 * (p->f[a] + p->fprev[a]) : p->f[a]) * fs;
+        torque[a] = (avg ? 0.5 * (p->t[a] + p->tprev[a]) : p->t[a]) * ts;
+    }
+}
+
+void fluid_sphere_load_lattice(const fluid_t *fl, int i, double force[3], double torque[3])
+{
+    const sphere_t *p = &fl->spheres.s[i];
+    for (int a = 0; a < 3; a++) {
+        force[a] = p->f[a];
+        torque[a] = p->t[a];
+    }
 }

@@ -29,8 +29,9 @@ void fluid_cells(const fluid_t *fl, int n[3]);
 size_t fluid_memory_bytes(const fluid_t *fl);
 
 /* Density and velocity of every interior cell, lattice units, x fastest:
- * rho[i], u[3*i+a] with i = x + nx*(y + ny*z) (0-based interior coordinates).
- * The velocity includes the half-force shift of Guo's scheme. */
+ * rho[i], u[3*i+a] with i = x + nx*(y + ny*z) (0-based interior coordinates):
+ * the values the last collision used (with Guo's half-force shift). Solid
+ * cells read 0. */
 void fluid_moments_lattice(fluid_t *fl, double *rho, double *u);
 /* Sets every interior cell to the equilibrium of the given fields (same
  * layout), e.g. an initial condition; NULL u means at rest. */
@@ -45,6 +46,19 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3]);
  * velocity above mach_limit times the lattice speed of sound. Returns
  * STATUS_ERROR with step, cell, position and cause in the message. */
 status_t fluid_check(fluid_t *fl, double mach_limit);
+
+/* Spheres (global index: bodies in scene order, their spheres in order). */
+int fluid_nspheres(const fluid_t *fl);
+/* Kinematics for the next step, SI: centre, centre velocity, angular velocity
+ * of its body. A move of more than half a cell in one step is a warning, more
+ * than one cell an error. Prescribed and fixed spheres move by themselves. */
+status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[3], const double w[3]);
+void fluid_get_sphere(const fluid_t *fl, int i, double c[3], double v[3], double w[3]);
+/* Hydrodynamic force (N) and torque about the centre (N m) of the last step,
+ * averaged over the last two steps when fluid.force_averaging is set. */
+void fluid_sphere_load(const fluid_t *fl, int i, double force[3], double torque[3]);
+/* The same, lattice units, never averaged (momentum per step). */
+void fluid_sphere_load_lattice(const fluid_t *fl, int i, double force[3], double torque[3]);
 
 /* Low-level access for tests and benchmarks. */
 double *fluid_populations(fluid_t *fl); /* f[cur], SoA, see grid.h */

@@ -11,6 +11,7 @@
 #include "fluid.h"
 #include "grid.h"
 #include "kernel.h"
+#include "spheres.h"
 #include "walls.h"
 
 #include <stdint.h>
@@ -25,6 +26,7 @@ struct fluid {
     int cur;
     uint8_t *flags;
     walls_t walls;
+    spheres_t spheres;
     long step;
     double t0;
     log_t log;

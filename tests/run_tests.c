@@ -3,6 +3,7 @@
  * `run_tests --validate` adds the long validation suites. */
 #include "common/scene_tests.h"
 #include "fluid/fluid_tests.h"
+#include "rigid/rigid_tests.h"
 
 #include <CUnit/Basic.h>
 #include <string.h>
@@ -23,6 +24,7 @@ int main(int argc, char **argv)
     }
     fluid_register_tests(validate);
     scene_register_tests();
+    rigid_register_tests();
     CU_basic_set_mode(CU_BRM_VERBOSE);
     if (only != NULL) {
         CU_pSuite s = CU_get_suite(only);

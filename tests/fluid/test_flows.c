@@ -278,4 +278,5 @@ void fluid_register_tests(int validate)
     lattice_register_tests();
     kernel_register_tests();
     flows_register_tests(validate);
+    spheres_register_tests(validate);
 }

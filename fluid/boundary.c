@@ -1,0 +1,37 @@
+/* boundary.c — coefficients of the curved-wall schemes (boundary.h). */
+#include "boundary.h"
+
+boundary_scheme_t boundary_coefficients(boundary_scheme_t scheme, double d, int have_ff, int have_fff, double a[3],
+                                        double b[2])
+{
+    a[0] = a[1] = a[2] = b[0] = b[1] = 0.0;
+    if (scheme == BOUNDARY_QUADRATIC) {
+        if (d < 0.5 && have_ff && have_fff) {
+            a[0] = d * (1.0 + 2.0 * d);
+            a[1] = 1.0 - 4.0 * d * d;
+            a[2] = -d * (1.0 - 2.0 * d);
+            return BOUNDARY_QUADRATIC;
+        }
+        if (d >= 0.5 && have_ff) {
+            a[0] = 1.0 / (d * (2.0 * d + 1.0));
+            b[0] = (2.0 * d - 1.0) / d;
+            b[1] = -(2.0 * d - 1.0) / (2.0 * d + 1.0);
+            return BOUNDARY_QUADRATIC;
+        }
+        scheme = BOUNDARY_CLI;
+    }
+    if (scheme == BOUNDARY_CLI && have_ff) {
+        const double k0 = (1.0 - 2.0 * d) / (1.0 + 2.0 * d);
+        a[0] = 1.0;
+        a[1] = k0;
+        b[0] = -k0;
+        return BOUNDARY_CLI;
+    }
+    if (scheme == BOUNDARY_YU && have_ff) {
+        a[0] = b[0] = d / (1.0 + d);
+        a[1] = (1.0 - d) / (1.0 + d);
+        return BOUNDARY_YU;
+    }
+    a[0] = 1.0;
+    return BOUNDARY_BOUNCE_BACK;
+}

@@ -1,0 +1,36 @@
+/* boundary.h — interpolated bounce-back schemes for curved walls as
+ * coefficient sets.
+ *
+ * Every scheme here is linear in post-collision populations along the link
+ * direction q (pointing from the fluid cell x_f into the solid):
+ *   f_qbar(x_f, t+1) = sum_k a_k f~_q(x_f - k c_q) + sum_k b_k f~_qbar(x_f - k c_q)
+ *                      - A 6 w_q rho_w c_q.u_w,      A = a_0 + a_1 + a_2,
+ * and the moving-wall term follows from requiring that a uniform flow moving
+ * with the wall is reproduced exactly (it gives Ladd's term for bounce-back,
+ * Eq. 6's term for Yu, 4/(1+2 delta) for CLI, and Lallemand & Luo's for
+ * Bouzidi). Schemes:
+ *   bounce_back  a0 = 1 (Ladd 1994)
+ *   yu           Yu, Mei & Shyy (2003), the paper's Eq. 6:
+ *                a0 = b0 = delta/(1+delta), a1 = (1-delta)/(1+delta)
+ *   cli          central linear interpolation, Ginzburg, Verhaeghe &
+ *                d'Humieres, Commun. Comput. Phys. 3 (2008) 427, Eq. 4.1,
+ *                Table 3: a0 = 1, a1 = k0, b0 = -k0, k0 = (1-2 delta)/(1+2 delta)
+ *   quadratic    Bouzidi, Firdaouss & Lallemand, Phys. Fluids 13 (2001) 3452:
+ *                delta < 1/2: a0 = delta(1+2 delta), a1 = 1-4 delta^2,
+ *                             a2 = -delta(1-2 delta)
+ *                delta >= 1/2: a0 = 1/(delta(2 delta+1)), b0 = (2 delta-1)/delta,
+ *                             b1 = -(2 delta-1)/(2 delta+1)
+ * Where a scheme needs a fluid node that is missing (x_f - c_q or
+ * x_f - 2 c_q solid or outside), the next simpler scheme is used:
+ * quadratic -> cli -> bounce_back, yu -> bounce_back. */
+#ifndef FLUID_BOUNDARY_H
+#define FLUID_BOUNDARY_H
+
+#include "../common/scene.h"
+
+/* Fills a[3], b[2]; have_ff / have_fff: x_f - c_q / x_f - 2 c_q are fluid.
+ * Returns the scheme actually used. */
+boundary_scheme_t boundary_coefficients(boundary_scheme_t scheme, double delta, int have_ff, int have_fff,
+                                        double a[3], double b[2]);
+
+#endif

@@ -1,0 +1,27 @@
+/* refill.h — populations for cells that a moving sphere uncovers.
+ *
+ * equilibrium    the paper's scheme: f = feq(rho, u_s), rho the mean density
+ *                of the fluid neighbours, u_s the velocity of the sphere
+ *                surface point nearest to the cell.
+ * extrapolation  equilibrium plus the non-equilibrium part extrapolated from
+ *                the fluid neighbours along the lattice direction closest to
+ *                the surface normal (Caiazzo, Prog. Comput. Fluid Dyn. 8 (2008)
+ *                3; second order where two fluid nodes exist, first order
+ *                where one exists, equilibrium where none does).
+ * A neighbour counts when its flag is plain fluid (not solid, ghost, or
+ * itself uncovered in this step). Periodic axes wrap. */
+#ifndef FLUID_REFILL_H
+#define FLUID_REFILL_H
+
+#include "../common/scene.h"
+#include "grid.h"
+
+#include <stdint.h>
+
+/* cell: allocated coordinates X; normal: unit outward normal of the sphere at
+ * the cell; us: surface velocity (lattice). Writes the 19 populations of the
+ * cell in f and returns their momentum in mom[3]. */
+void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int periodic[3], double *f,
+                 const int X[3], const double normal[3], const double us[3], double mom[3]);
+
+#endif

@@ -1,0 +1,534 @@
+/* spheres.c — map, refill, links and momentum exchange of moving spheres
+ * (spheres.h). Serial on purpose: the per-sphere sums are then independent
+ * of the thread count (bit-identical results), and the work is O(surface),
+ * small next to the O(volume) kernel. */
+#include "spheres.h"
+
+#include "boundary.h"
+#include "lattice.h"
+#include "refill.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { FLAG_SOLID = 1, FLAG_GHOST = 2, FLAG_MARK = 4, FLAG_VISIT = 8, FLAG_FRESH = 16 };
+
+static int grow(void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap) {
+        return 1;
+    }
+    size_t nc = *cap ? *cap : 256;
+    while (nc < need) {
+        nc *= 2;
+    }
+    void *np = realloc(*p, nc * elem);
+    if (np == NULL) {
+        return 0;
+    }
+    *p = np;
+    *cap = nc;
+    return 1;
+}
+
+/* Minimum-image difference a - b on periodic axes of extent n. */
+static void min_image(const grid_t *g, const int periodic[3], const double a[3], const double b[3], double d[3])
+{
+    for (int k = 0; k < 3; k++) {
+        d[k] = a[k] - b[k];
+        if (periodic[k]) {
+            d[k] -= g->n[k] * floor(d[k] / g->n[k] + 0.5);
+        }
+    }
+}
+
+/* Wraps integer coordinates onto the interior; 0 when outside a wall. */
+static int wrap_cell(const grid_t *g, const int periodic[3], const int X[3], int Y[3])
+{
+    for (int a = 0; a < 3; a++) {
+        Y[a] = X[a];
+        if (Y[a] < 1 || Y[a] > g->n[a]) {
+            if (!periodic[a]) {
+                return 0;
+            }
+            Y[a] = ((Y[a] - 1) % g->n[a] + g->n[a]) % g->n[a] + 1;
+        }
+    }
+    return 1;
+}
+
+static void cross(const double a[3], const double b[3], double c[3])
+{
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+double spheres_ray_delta(const double x[3], int q, const double cen[3], double r, const grid_t *g,
+                         const int periodic[3])
+{
+    double d[3];
+    min_image(g, periodic, x, cen, d);
+    const double cc = (double)(lb_c[q][0] * lb_c[q][0] + lb_c[q][1] * lb_c[q][1] + lb_c[q][2] * lb_c[q][2]);
+    const double b = d[0] * lb_c[q][0] + d[1] * lb_c[q][1] + d[2] * lb_c[q][2];
+    const double c = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - r * r;
+    const double disc = b * b - cc * c;
+    if (c <= 0.0 || disc < 0.0) {
+        return 0.0; /* starts inside, or misses */
+    }
+    /* smaller root, written to avoid cancellation */
+    const double t = c / (-b + sqrt(disc));
+    return (b < 0.0 && t > 0.0 && t <= 1.0 + 1e-12) ? fmin(t, 1.0) : 0.0;
+}
+
+static void rotate(const double w[3], double t, const double v[3], double out[3])
+{
+    /* Rodrigues: rotation by angle |w| t about w */
+    const double n = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    if (n * t == 0.0) {
+        memcpy(out, v, 3 * sizeof(double));
+        return;
+    }
+    const double k[3] = {w[0] / n, w[1] / n, w[2] / n}, th = n * t;
+    double kxv[3];
+    cross(k, v, kxv);
+    const double kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+    for (int a = 0; a < 3; a++) {
+        out[a] = v[a] * cos(th) + kxv[a] * sin(th) + k[a] * kv * (1.0 - cos(th));
+    }
+}
+
+static void wrap_centre(const grid_t *g, const int periodic[3], double c[3])
+{
+    for (int a = 0; a < 3; a++) {
+        if (periodic[a]) {
+            c[a] = 0.5 + fmod(fmod(c[a] - 0.5, g->n[a]) + g->n[a], g->n[a]);
+        }
+    }
+}
+
+status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const grid_t *g, uint8_t *flags,
+                      const log_t *log)
+{
+    (void)flags;
+    memset(sp, 0, sizeof *sp);
+    sp->n = scene_total_spheres(s);
+    sp->scheme = s->fluid.boundary_scheme;
+    sp->refill = s->fluid.refill;
+    sp->force = s->fluid.force_method;
+    sp->averaging = s->fluid.force_averaging;
+    sp->first = 1;
+    for (int a = 0; a < 3; a++) {
+        sp->periodic[a] = s->domain.faces[2 * a].type == FACE_PERIODIC;
+    }
+    if (sp->n == 0) {
+        return STATUS_OK;
+    }
+    sp->s = calloc((size_t)sp->n, sizeof *sp->s);
+    if (sp->s == NULL) {
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for %d spheres", sp->n);
+    }
+    int k = 0;
+    for (int b = 0; b < s->nbodies; b++) {
+        const scene_body_t *body = &s->bodies[b];
+        double cb[3] = {0.0, 0.0, 0.0}, vol = 0.0;
+        for (int i = 0; i < body->nspheres; i++) {
+            const double r3 = pow(body->spheres[i].radius, 3.0);
+            for (int a = 0; a < 3; a++) {
+                cb[a] += r3 * body->spheres[i].center[a];
+            }
+            vol += r3;
+        }
+        for (int a = 0; a < 3; a++) {
+            cb[a] /= vol;
+        }
+        for (int i = 0; i < body->nspheres; i++, k++) {
+            sphere_t *p = &sp->s[k];
+            p->body = b;
+            p->motion = body->motion;
+            p->r = body->spheres[i].radius / u->dx;
+            double rel[3];
+            for (int a = 0; a < 3; a++) {
+                p->c[a] = body->spheres[i].center[a] / u->dx + 0.5;
+                p->cb0[a] = cb[a] / u->dx + 0.5;
+                rel[a] = p->c[a] - p->cb0[a];
+                p->rel0[a] = rel[a];
+            }
+            if (body->motion != MOTION_FIXED) {
+                double wr[3];
+                const double w[3] = {body->angular_velocity[0] * u->dt, body->angular_velocity[1] * u->dt,
+                                     body->angular_velocity[2] * u->dt};
+                cross(w, rel, wr);
+                for (int a = 0; a < 3; a++) {
+                    p->w[a] = w[a];
+                    p->vbody[a] = body->velocity[a] * u->dt / u->dx;
+                    p->v[a] = p->vbody[a] + wr[a];
+                }
+            }
+            wrap_centre(g, sp->periodic, p->c);
+        }
+    }
+    return STATUS_OK;
+}
+
+void spheres_free(spheres_t *sp)
+{
+    free(sp->s);
+    free(sp->links);
+    free(sp->solid);
+    free(sp->fresh);
+    free(sp->fresh_sphere);
+    memset(sp, 0, sizeof *sp);
+}
+
+void spheres_advance_prescribed(spheres_t *sp, const grid_t *g, long step)
+{
+    for (int i = 0; i < sp->n; i++) {
+        sphere_t *p = &sp->s[i];
+        if (p->motion != MOTION_PRESCRIBED) {
+            continue;
+        }
+        /* the centroid moves with the body velocity, the centre turns about it */
+        double rel[3], wrel[3];
+        rotate(p->w, (double)step, p->rel0, rel);
+        cross(p->w, rel, wrel);
+        for (int a = 0; a < 3; a++) {
+            p->c[a] = p->cb0[a] + p->vbody[a] * (double)step + rel[a];
+            p->v[a] = p->vbody[a] + wrel[a];
+        }
+        wrap_centre(g, sp->periodic, p->c);
+    }
+}
+
+/* Marks cells inside sphere k with FLAG_MARK; appends (cell, sphere) pairs. */
+typedef struct {
+    size_t cell;
+    int sphere;
+} mark_t;
+
+static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int k, mark_t **marks, size_t *nm,
+                            size_t *cap)
+{
+    const sphere_t *p = &sp->s[k];
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = (int)ceil(p->c[a] - p->r);
+        hi[a] = (int)floor(p->c[a] + p->r);
+    }
+    const double r2 = p->r * p->r;
+    int X[3], Y[3];
+    for (X[2] = lo[2]; X[2] <= hi[2]; X[2]++) {
+        for (X[1] = lo[1]; X[1] <= hi[1]; X[1]++) {
+            for (X[0] = lo[0]; X[0] <= hi[0]; X[0]++) {
+                const double dx = X[0] - p->c[0], dy = X[1] - p->c[1], dz = X[2] - p->c[2];
+                if (dx * dx + dy * dy + dz * dz > r2 || !wrap_cell(g, sp->periodic, X, Y)) {
+                    continue;
+                }
+                const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
+                if (!grow((void **)marks, cap, *nm + 1, sizeof **marks)) {
+                    return STATUS_ERROR;
+                }
+                (*marks)[(*nm)++] = (mark_t){i, k};
+                flags[i] |= FLAG_MARK;
+            }
+        }
+    }
+    return STATUS_OK;
+}
+
+static void cell_coords(const grid_t *g, size_t i, int X[3])
+{
+    X[0] = (int)(i % (size_t)g->s[0]);
+    X[1] = (int)(i / (size_t)g->s[0] % (size_t)g->s[1]);
+    X[2] = (int)(i / ((size_t)g->s[0] * (size_t)g->s[1]));
+}
+
+/* Books momentum dp (lattice) taken by sphere k at cell X. */
+static void book(spheres_t *sp, const grid_t *g, int k, const int X[3], const double dp[3])
+{
+    sphere_t *p = &sp->s[k];
+    const double x[3] = {X[0], X[1], X[2]};
+    double d[3], t[3];
+    min_image(g, sp->periodic, x, p->c, d);
+    cross(d, dp, t);
+    for (int a = 0; a < 3; a++) {
+        p->f[a] += dp[a];
+        p->t[a] += t[a];
+    }
+}
+
+/* The sphere whose surface is nearest to point x. */
+static int nearest_sphere(const spheres_t *sp, const grid_t *g, const double x[3], double d_out[3])
+{
+    int best = 0;
+    double bd = INFINITY;
+    for (int k = 0; k < sp->n; k++) {
+        double d[3];
+        min_image(g, sp->periodic, x, sp->s[k].c, d);
+        const double dist = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - sp->s[k].r;
+        if (dist < bd) {
+            bd = dist;
+            best = k;
+            memcpy(d_out, d, sizeof d);
+        }
+    }
+    return best;
+}
+
+static status_t build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, const log_t *log);
+
+status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, const log_t *log)
+{
+    if (sp->n == 0) {
+        return STATUS_OK;
+    }
+    const size_t N = g->ncells;
+    for (int k = 0; k < sp->n; k++) {
+        memcpy(sp->s[k].fprev, sp->s[k].f, sizeof sp->s[k].f);
+        memcpy(sp->s[k].tprev, sp->s[k].t, sizeof sp->s[k].t);
+        memset(sp->s[k].f, 0, sizeof sp->s[k].f);
+        memset(sp->s[k].t, 0, sizeof sp->s[k].t);
+    }
+    mark_t *marks = NULL;
+    size_t nm = 0, cap = 0;
+    for (int k = 0; k < sp->n; k++) {
+        if (mark_sphere(sp, g, flags, k, &marks, &nm, &cap) != STATUS_OK) {
+            free(marks);
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres");
+        }
+    }
+    /* uncovered: solid before, not marked now */
+    sp->nfresh = 0;
+    for (size_t j = 0; j < sp->nsolid; j++) {
+        const size_t i = sp->solid[j];
+        if (flags[i] & FLAG_MARK) {
+            continue;
+        }
+        if (!grow((void **)&sp->fresh, &sp->cap_fresh, sp->nfresh + 1, sizeof *sp->fresh)) {
+            free(marks);
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres");
+        }
+        sp->fresh[sp->nfresh++] = i;
+        flags[i] = FLAG_FRESH;
+    }
+    /* covered: marked now, fluid before; the new solid list */
+    sp->nsolid = 0;
+    for (size_t j = 0; j < nm; j++) {
+        const size_t i = marks[j].cell;
+        if (!(flags[i] & FLAG_MARK)) {
+            continue; /* already handled through another sphere */
+        }
+        const int was_solid = flags[i] & FLAG_SOLID;
+        flags[i] = FLAG_SOLID;
+        if (!grow((void **)&sp->solid, &sp->cap_solid, sp->nsolid + 1, sizeof *sp->solid)) {
+            free(marks);
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres");
+        }
+        sp->solid[sp->nsolid++] = i;
+        if (!was_solid && !sp->first) {
+            double dp[3] = {0.0, 0.0, 0.0};
+            for (int q = 0; q < LB_Q; q++) {
+                for (int a = 0; a < 3; a++) {
+                    dp[a] += lb_c[q][a] * f[(size_t)q * N + i];
+                }
+            }
+            int X[3];
+            cell_coords(g, i, X);
+            book(sp, g, marks[j].sphere, X, dp);
+            sp->covered_total++;
+        }
+    }
+    free(marks);
+    /* refill, after all flags are final; fresh cells do not feed each other */
+    for (size_t j = 0; j < sp->nfresh; j++) {
+        const size_t i = sp->fresh[j];
+        int X[3];
+        cell_coords(g, i, X);
+        const double x[3] = {X[0], X[1], X[2]};
+        double d[3] = {0.0, 0.0, 0.0};
+        const int k = nearest_sphere(sp, g, x, d);
+        const sphere_t *p = &sp->s[k];
+        const double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        double nrm[3], rs[3], wr[3], us[3], mom[3];
+        for (int a = 0; a < 3; a++) {
+            nrm[a] = len > 0.0 ? d[a] / len : 0.0;
+            rs[a] = nrm[a] * p->r; /* nearest surface point, relative to the centre */
+        }
+        cross(p->w, rs, wr);
+        for (int a = 0; a < 3; a++) {
+            us[a] = p->v[a] + wr[a];
+        }
+        refill_cell(sp->refill, g, flags, sp->periodic, f, X, nrm, us, mom);
+        for (int a = 0; a < 3; a++) {
+            mom[a] = -mom[a];
+        }
+        book(sp, g, k, X, mom);
+        sp->uncovered_total++;
+    }
+    for (size_t j = 0; j < sp->nfresh; j++) {
+        flags[sp->fresh[j]] = 0;
+    }
+    /* solid cells hold a rest state: finite values for the kernel to chew on */
+    for (size_t j = 0; j < sp->nsolid; j++) {
+        for (int q = 0; q < LB_Q; q++) {
+            f[(size_t)q * N + sp->solid[j]] = lb_w[q];
+        }
+    }
+    sp->first = 0;
+    return build_links(sp, g, flags, log);
+}
+
+static int fluid_at(const spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, int k,
+                    size_t *out)
+{
+    int Z[3], Y[3];
+    for (int a = 0; a < 3; a++) {
+        Z[a] = X[a] - k * lb_c[q][a];
+    }
+    if (!wrap_cell(g, sp->periodic, Z, Y)) {
+        return 0;
+    }
+    *out = grid_index(g, Y[0], Y[1], Y[2]);
+    return (flags[*out] & ~FLAG_VISIT) == 0;
+}
+
+static status_t build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, const log_t *log)
+{
+    const size_t N = g->ncells;
+    sp->nlinks = 0;
+    size_t *visited = NULL, nv = 0, capv = 0;
+    status_t st = STATUS_OK;
+    for (int k = 0; k < sp->n && st == STATUS_OK; k++) {
+        const sphere_t *p = &sp->s[k];
+        int lo[3], hi[3];
+        for (int a = 0; a < 3; a++) {
+            lo[a] = (int)floor(p->c[a] - p->r) - 1;
+            hi[a] = (int)ceil(p->c[a] + p->r) + 1;
+        }
+        int X[3], Y[3];
+        for (X[2] = lo[2]; X[2] <= hi[2] && st == STATUS_OK; X[2]++) {
+            for (X[1] = lo[1]; X[1] <= hi[1] && st == STATUS_OK; X[1]++) {
+                for (X[0] = lo[0]; X[0] <= hi[0]; X[0]++) {
+                    if (!wrap_cell(g, sp->periodic, X, Y)) {
+                        continue;
+                    }
+                    const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
+                    if (flags[i] != 0) {
+                        continue; /* solid, ghost or visited */
+                    }
+                    if (!grow((void **)&visited, &capv, nv + 1, sizeof *visited)) {
+                        st = STATUS_ERROR;
+                        break;
+                    }
+                    visited[nv++] = i;
+                    flags[i] |= FLAG_VISIT;
+                    const double xf[3] = {Y[0], Y[1], Y[2]};
+                    for (int q = 1; q < LB_Q; q++) {
+                        int B[3], W[3];
+                        for (int a = 0; a < 3; a++) {
+                            B[a] = Y[a] + lb_c[q][a];
+                        }
+                        if (!wrap_cell(g, sp->periodic, B, W) ||
+                            !(flags[grid_index(g, W[0], W[1], W[2])] & FLAG_SOLID)) {
+                            continue;
+                        }
+                        /* Eq. 5: nearest intersection over all spheres near x_f */
+                        double delta = 2.0;
+                        int hit = -1;
+                        for (int m = 0; m < sp->n; m++) {
+                            const double t = spheres_ray_delta(xf, q, sp->s[m].c, sp->s[m].r, g, sp->periodic);
+                            if (t > 0.0 && t < delta) {
+                                delta = t;
+                                hit = m;
+                            }
+                        }
+                        if (hit < 0) {
+                            /* x_b sits on a surface the ray only touches at t = 1 */
+                            double d[3];
+                            const double xb[3] = {B[0], B[1], B[2]};
+                            hit = nearest_sphere(sp, g, xb, d);
+                            delta = 1.0;
+                        }
+                        if (!grow((void **)&sp->links, &sp->cap_links, sp->nlinks + 1, sizeof *sp->links)) {
+                            st = STATUS_ERROR;
+                            break;
+                        }
+                        sphere_link_t *l = &sp->links[sp->nlinks++];
+                        memset(l, 0, sizeof *l);
+                        l->q = q;
+                        l->sphere = hit;
+                        l->delta = delta;
+                        l->xf = i;
+                        l->dst = (size_t)lb_opposite(q) * N + grid_index(g, B[0], B[1], B[2]);
+                        const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
+                        const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
+                        boundary_coefficients(sp->scheme, delta, have_ff, have_fff, l->a, l->b);
+                        double d[3];
+                        min_image(g, sp->periodic, xf, sp->s[hit].c, d);
+                        for (int a = 0; a < 3; a++) {
+                            l->rw[a] = d[a] + delta * lb_c[q][a];
+                        }
+                    }
+                }
+            }
+        }
+    }
+    for (size_t j = 0; j < nv; j++) {
+        flags[visited[j]] &= (uint8_t)~FLAG_VISIT;
+    }
+    free(visited);
+    if (st != STATUS_OK) {
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for sphere boundary links");
+    }
+    return STATUS_OK;
+}
+
+void spheres_fill(spheres_t *sp, const grid_t *g, double *f)
+{
+    const size_t N = g->ncells;
+    const int galilean = sp->force == FORCE_GALILEAN;
+    for (size_t j = 0; j < sp->nlinks; j++) {
+        const sphere_link_t *l = &sp->links[j];
+        sphere_t *p = &sp->s[l->sphere];
+        const int q = l->q, o = lb_opposite(q);
+        const double *fq = f + (size_t)q * N, *fo = f + (size_t)o * N;
+        double rho = 0.0;
+        for (int k = 0; k < LB_Q; k++) {
+            rho += f[(size_t)k * N + l->xf];
+        }
+        double wr[3], uw[3];
+        cross(p->w, l->rw, wr);
+        for (int a = 0; a < 3; a++) {
+            uw[a] = p->v[a] + wr[a];
+        }
+        const double cu = lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2];
+        const double A = l->a[0] + l->a[1] + l->a[2];
+        const double f_old = fq[l->xf];
+        double f_new = l->a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
+        if (l->a[1] != 0.0 || l->b[0] != 0.0 || l->b[1] != 0.0) {
+            f_new += l->a[1] * fq[l->xff] + l->b[0] * fo[l->xf];
+        }
+        if (l->a[2] != 0.0) {
+            f_new += l->a[2] * fq[l->xfff];
+        }
+        if (l->b[1] != 0.0) {
+            f_new += l->b[1] * fo[l->xff];
+        }
+        f[l->dst] = f_new;
+        /* Eq. 7 (Ladd), populations centred on the rest weight so that hidden
+         * faces of touching spheres carry no spurious pressure; Wen et al.,
+         * Phys. Rev. E 89 (2014) 023305, add -(f_old - f_new) u_w. */
+        const double mem = f_old + f_new - 2.0 * lb_w[q];
+        double df[3];
+        for (int a = 0; a < 3; a++) {
+            df[a] = lb_c[q][a] * mem - (galilean ? (f_old - f_new) * uw[a] : 0.0);
+        }
+        double t[3];
+        cross(l->rw, df, t);
+        for (int a = 0; a < 3; a++) {
+            p->f[a] += df[a];
+            p->t[a] += t[a];
+        }
+    }
+}

@@ -1,0 +1,85 @@
+/* spheres.h — moving spheres as curved moving boundaries (the paper's
+ * Section 4, Eq. 5-7, and DESIGN section 6).
+ *
+ * Every step, in this order (spheres_map, then spheres_fill after the
+ * domain walls):
+ *   map     cells whose centre lies inside or on a sphere are solid; cells that
+ *           become solid give their momentum to the sphere that covers them,
+ *           cells that become fluid are refilled (refill.c) and take their
+ *           momentum from the sphere that left them (Aidun, Lu & Ding 1998);
+ *   links   one link per fluid cell x_f and direction q with x_f + c_q solid:
+ *           delta in (0, 1] from a ray-sphere intersection (Eq. 5), the
+ *           nearest hit over all spheres wins;
+ *   fill    the population that x_f pulls from the solid side is computed
+ *           from post-collision values at x_f, x_f - c_q, x_f - 2 c_q by the
+ *           scene's scheme (boundary.c) with the moving-wall term, and the
+ *           momentum exchanged on the link is added to the sphere (Eq. 7).
+ * Lattice coordinates: the centre of allocated cell i is at X = i, so a
+ * point x (m) is at X = x/dx + 1/2. Everything here is in lattice units. */
+#ifndef FLUID_SPHERES_H
+#define FLUID_SPHERES_H
+
+#include "../common/scene.h"
+#include "grid.h"
+#include "units.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct {
+    double c[3], v[3], w[3]; /* centre (lattice coordinates), velocity, angular velocity (lattice units) */
+    double r;                /* radius, cells */
+    int body;
+    int motion;              /* MOTION_FREE, MOTION_FIXED, MOTION_PRESCRIBED */
+    double cb0[3], rel0[3];  /* prescribed: body centroid at t0, centre minus centroid at t0 */
+    double vbody[3];         /* prescribed: velocity of the body centroid */
+    double f[3], t[3];       /* load of the last step: force, torque about c */
+    double fprev[3], tprev[3];
+} sphere_t;
+
+typedef struct {
+    size_t dst;           /* slot written: qbar * ncells + (x_f + c_q), unwrapped */
+    size_t xf, xff, xfff; /* interior cells along -c_q (periodic wrap applied) */
+    double a[3], b[2];    /* f_new = sum a_k f~_q(x_f - k c_q) + sum b_k f~_qbar(x_f - k c_q) + moving term */
+    double rw[3];         /* wall point minus sphere centre */
+    int q, sphere;
+    double delta;
+} sphere_link_t;
+
+typedef struct {
+    int n;
+    sphere_t *s;
+    /* per-step lists */
+    sphere_link_t *links;
+    size_t nlinks, cap_links;
+    size_t *solid;
+    size_t nsolid, cap_solid;
+    size_t *fresh; /* cells uncovered this step */
+    size_t nfresh, cap_fresh;
+    int *fresh_sphere;
+    long covered_total, uncovered_total;
+    int periodic[3];
+    boundary_scheme_t scheme;
+    refill_t refill;
+    force_method_t force;
+    int averaging;
+    int first;
+} spheres_t;
+
+status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const grid_t *g, uint8_t *flags,
+                      const log_t *log);
+void spheres_free(spheres_t *sp);
+
+/* Map stage on post-collision populations f: flags, covering, refill, links. */
+status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, const log_t *log);
+/* Fill stage: boundary populations and the momentum exchanged per sphere. */
+void spheres_fill(spheres_t *sp, const grid_t *g, double *f);
+/* Moves prescribed and fixed spheres by one step (dt = 1). */
+void spheres_advance_prescribed(spheres_t *sp, const grid_t *g, long step);
+
+/* delta of the ray from lattice point x along c_q against a sphere of
+ * centre cen and radius r (minimum image on periodic axes); 0 if no hit in (0, 1]. */
+double spheres_ray_delta(const double x[3], int q, const double cen[3], double r, const grid_t *g,
+                         const int periodic[3]);
+
+#endif

@@ -1,0 +1,92 @@
+/* forces.c — assembles every force on the spheres and bodies for one state.
+ *
+ * This is the single right-hand side shared by both integrators (Verlet calls
+ * it at each sub-step, CVODE from its RHS callback), so that they integrate
+ * the same equations. Per sphere i it sums into sf[i] (force) and st[i]
+ * (torque about the sphere centre): the hydrodynamic load held over the step,
+ * gravity and buoyancy (m_i - rho_f V_i) g acting at the share centroid, and
+ * the contacts (contact.c). Per body it then forms the force and the torque
+ * about the centre of mass, bt = sum st_i + (x_i - com) x sf_i. Fixed bodies
+ * get zero. The body array may be a scratch copy (CVODE). */
+#include "rigid_internal.h"
+
+#include <string.h>
+
+void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, double x[3], double v[3], double w[3])
+{
+    const rigid_sphere_t *s = &r->spheres[i];
+    const rigid_body_t *b = &bodies[s->body];
+    double m[9], d[3], om[3];
+    rq_matrix(b->q, m);
+    rm_mul(m, s->p, d);
+    if (b->fixed) {
+        om[0] = om[1] = om[2] = 0.0;
+    } else {
+        rigid_body_omega(b, om);
+    }
+    if (x != NULL) {
+        for (int a = 0; a < 3; a++) {
+            x[a] = b->com[a] + d[a];
+        }
+    }
+    if (v != NULL) {
+        double u[3];
+        rv_cross(om, d, u);
+        for (int a = 0; a < 3; a++) {
+            v[a] = (b->fixed ? 0.0 : b->v[a]) + u[a];
+        }
+    }
+    if (w != NULL) {
+        memcpy(w, om, sizeof om);
+    }
+}
+
+int rigid_forces(rigid_t *r, const rigid_body_t *bodies, rigid_contact_info_t *worst)
+{
+    const rigid_config_t *cfg = &r->cfg;
+    int ns = r->nspheres;
+    if (worst != NULL) {
+        worst->omega0 = 0.0;
+        worst->sphere_i = worst->sphere_j = -1;
+    }
+    for (int i = 0; i < ns; i++) {
+        const rigid_sphere_t *s = &r->spheres[i];
+        const rigid_body_t *b = &bodies[s->body];
+        rigid_sphere_world(r, bodies, i, r->sx[i], r->sv[i], NULL);
+        double m[9], arm[3], fg[3], tg[3];
+        rq_matrix(b->q, m);
+        double ds[3] = {s->s[0] - s->p[0], s->s[1] - s->p[1], s->s[2] - s->p[2]};
+        rm_mul(m, ds, arm);
+        double wgt = s->mass - cfg->fluid_density * s->volume;
+        for (int a = 0; a < 3; a++) {
+            fg[a] = wgt * cfg->gravity[a];
+        }
+        rv_cross(arm, fg, tg);
+        for (int a = 0; a < 3; a++) {
+            r->sf[3 * i + a] = s->load_f[a] + fg[a];
+            r->st[3 * i + a] = s->load_t[a] + tg[a];
+        }
+    }
+    int bad = rigid_contacts(r, bodies, (const double (*)[3])r->sx, worst);
+    memset(r->bf, 0, sizeof(double) * 3 * (size_t)r->nbodies);
+    memset(r->bt, 0, sizeof(double) * 3 * (size_t)r->nbodies);
+    for (int i = 0; i < ns; i++) {
+        int bi = r->spheres[i].body;
+        if (bodies[bi].fixed) {
+            continue;
+        }
+        double d[3], t[3];
+        rv_sub(r->sx[i], bodies[bi].com, d);
+        rv_cross(d, &r->sf[3 * i], t);
+        for (int a = 0; a < 3; a++) {
+            r->bf[3 * bi + a] += r->sf[3 * i + a];
+            r->bt[3 * bi + a] += r->st[3 * i + a] + t[a];
+        }
+    }
+    for (int k = 0; k < 3 * r->nbodies; k++) {
+        if (!isfinite(r->bf[k]) || !isfinite(r->bt[k])) {
+            return -1;
+        }
+    }
+    return bad;
+}

@@ -1,0 +1,123 @@
+/* rigid.h — the rigid agglomerate component: bodies made of sintered spheres.
+ *
+ * One opaque handle and a few verbs. The exchange with the fluid is per sphere
+ * (shared/DESIGN.md section 2): the caller sets the hydrodynamic force and the
+ * torque about the sphere centre of every sphere, calls rigid_step(), and reads
+ * back each sphere's centre, centre velocity and angular velocity, and each
+ * connection's force, torque and intact flag. Bodies are an internal notion:
+ * they split (break-up) and merge (sticking) and their ids change; spheres
+ * never change. All quantities are SI. Errors are returned as status_t with a
+ * message through the log_t given at creation (category "rigid").
+ *
+ * Physics: Iglberger, Thuerey, Ruede (2008), Stoermer-Verlet bodies and the
+ * free-body-diagram connection force and torque (Eq. 8 and 9). The component
+ * is documented in README.md (section "Rigid component"): integrators,
+ * contact models, the cut rule for connections on cycles, break-up and
+ * sticking, and the configuration fields with units and ranges. */
+#ifndef RIGID_RIGID_H
+#define RIGID_RIGID_H
+
+#include <stddef.h>
+
+#include "../common/status.h"
+
+typedef struct rigid rigid_t;
+
+typedef enum { RIGID_VERLET, RIGID_CVODE } rigid_integrator_t;
+typedef enum { RIGID_ADAMS, RIGID_BDF } rigid_cvode_method_t;
+typedef enum { RIGID_LS_DENSE, RIGID_LS_SPGMR } rigid_linsol_t;
+typedef enum { RIGID_CONTACT_NONE, RIGID_CONTACT_SPRING_DASHPOT, RIGID_CONTACT_HERTZ } rigid_contact_model_t;
+
+/* A sphere: centre at t0 (m), radius (m) > 0, index of its body in cfg->bodies. */
+typedef struct {
+    double center[3];
+    double radius;
+    int body;
+} rigid_sphere_cfg_t;
+
+/* A body: density (kg/m^3) > 0, initial velocity of its centre of mass (m/s)
+ * and angular velocity (rad/s). fixed != 0: the body never moves (infinite
+ * mass for contacts; prescribed motion belongs to the fluid side). */
+typedef struct {
+    double density;
+    double velocity[3];
+    double angular_velocity[3];
+    int fixed;
+} rigid_body_cfg_t;
+
+/* A connection between spheres a and b of one body, which must touch or
+ * overlap. Limits: tensile normal force (N), shear force (N), torque (N m);
+ * each >= 0; 0 or +INFINITY means that criterion never breaks. */
+typedef struct {
+    int a, b;
+    double max_normal, max_shear, max_torque;
+} rigid_connection_cfg_t;
+
+typedef struct {
+    int nspheres, nbodies, nconnections;
+    const rigid_sphere_cfg_t *spheres;
+    const rigid_body_cfg_t *bodies;
+    const rigid_connection_cfg_t *connections;
+    double gravity[3];      /* m/s^2 */
+    double fluid_density;   /* kg/m^3 >= 0; buoyancy = -fluid_density * V * g per sphere share */
+    rigid_contact_model_t contact_model;
+    double restitution;     /* (0, 1], spring-dashpot and Hertz damping */
+    double contact_time;    /* s > 0, spring-dashpot only */
+    double friction;        /* Coulomb coefficient >= 0; 0 = off */
+    double young_modulus;   /* Pa > 0, Hertz only */
+    double poisson_ratio;   /* [0, 0.5), Hertz only */
+    double stick_speed;     /* m/s >= 0: fuse when relative normal speed < this at contact; 0 = never */
+    int walls[3][2];        /* walls[axis][side]=1: face box_lo/box_hi[axis] is a solid wall */
+    double box_lo[3], box_hi[3];
+    rigid_integrator_t integrator;
+    rigid_cvode_method_t cvode_method;
+    rigid_linsol_t linsol;
+    double rtol, atol;      /* CVODE; atol on the scaled state (see README) */
+    int substeps;           /* >= 1 sub-steps per communication step, hydrodynamic load held */
+    double t0;              /* s */
+    /* Limits of connections created when bodies stick (same meaning as in
+     * rigid_connection_cfg_t; all 0 = unbreakable). Optional, may stay 0. */
+    double fuse_max_normal, fuse_max_shear, fuse_max_torque;
+} rigid_config_t;
+
+status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out);
+void rigid_free(rigid_t *r);
+
+/* Hydrodynamic force (N) and torque about the sphere centre (N m) of one
+ * sphere, held over the next rigid_step (see README: trapezoidal correction). */
+void rigid_set_sphere_load(rigid_t *r, int sphere, const double force[3], const double torque[3]);
+
+/* Advances one communication step of length h > 0 in cfg->substeps sub-steps. */
+status_t rigid_step(rigid_t *r, double h);
+double rigid_time(const rigid_t *r);
+
+void rigid_get_sphere(const rigid_t *r, int sphere, double pos[3], double vel[3], double omega[3]);
+int rigid_sphere_body(const rigid_t *r, int sphere);
+int rigid_nbodies(const rigid_t *r);
+int rigid_nspheres(const rigid_t *r);
+
+/* Connections: the first cfg->nconnections keep their cfg index; connections
+ * created by sticking are appended. force is the force on the section that
+ * contains sphere a exerted by the rest (Eq. 8), torque the torque on that
+ * section about the connection point (Eq. 9). */
+int rigid_nconnections(const rigid_t *r);
+void rigid_get_connection(const rigid_t *r, int k, double force[3], double torque[3], int *intact);
+void rigid_get_connection_pair(const rigid_t *r, int k, int *a, int *b);
+
+/* Body state: centre of mass, orientation (unit quaternion w,x,y,z rotating
+ * body principal axes to world), velocity, angular velocity, mass and the
+ * world inertia tensor about the centre of mass (row-major 3x3). Any output
+ * pointer may be NULL. */
+void rigid_get_body(const rigid_t *r, int body, double com[3], double q[4], double v[3], double omega[3],
+                    double *mass, double inertia_world[9]);
+
+/* Diagnostics over all movable bodies: linear momentum, angular momentum
+ * about the world origin, kinetic energy. */
+void rigid_momentum(const rigid_t *r, double p[3], double l[3]);
+double rigid_kinetic_energy(const rigid_t *r);
+
+size_t rigid_state_size(const rigid_t *r);
+status_t rigid_state_save(const rigid_t *r, void *buf, size_t size);
+status_t rigid_state_restore(rigid_t *r, const void *buf, size_t size);
+
+#endif

@@ -1,0 +1,207 @@
+/* rigid_internal.h — the data layout of the rigid component, shared by its files.
+ *
+ * Layout. Spheres never change; each carries its fixed "mass share" (the part
+ * of its body's union that belongs to it, see body.c) expressed in the frame
+ * of the body it currently belongs to. Bodies are an array rebuilt on
+ * break-up and sticking (topology.c). A body's frame is its principal-axes
+ * frame with origin at its centre of mass, so its inertia is diag(inertia).
+ * Connections are an array that grows when bodies stick.
+ *
+ * Invariants: for every body b, mass = sum of its spheres' share masses and
+ * the shares' first moments sum to zero in the body frame; q is a unit
+ * quaternion; L is the angular momentum about the centre of mass in the world
+ * frame (the state variable of both integrators, so that free rotation keeps
+ * it exactly); every connection joins two spheres of one body while intact.
+ * Everything that a continuation depends on lives in these arrays, so that
+ * state.c can serialise it (DESIGN.md section 8). */
+#ifndef RIGID_INTERNAL_H
+#define RIGID_INTERNAL_H
+
+#include "rigid.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#define RIGID_CAT "rigid"
+
+typedef struct {
+    double radius;
+    int body;
+    int orig_body;    /* body index in the scene: implicit bonds join touching spheres of one scene body */
+    double density;   /* of its original body's material */
+    double p[3];      /* centre, body frame relative to the body's centre of mass */
+    double mass;      /* share mass (kg) */
+    double volume;    /* share volume (m^3) */
+    double s[3];      /* share centroid, body frame relative to the body's centre of mass */
+    double j[9];      /* share inertia about its own centroid, body frame */
+    double load_f[3], load_t[3]; /* hydrodynamic load set for the next step */
+    double held_f[3], held_t[3]; /* load used in the previous step */
+} rigid_sphere_t;
+
+typedef struct {
+    double com[3];
+    double q[4];       /* w, x, y, z: body -> world */
+    double v[3];
+    double l[3];       /* angular momentum about com, world frame */
+    double mass;
+    double inertia[3]; /* principal moments */
+    int fixed;
+} rigid_body_t;
+
+typedef struct {
+    int a, b;
+    double max_normal, max_shear, max_torque;
+    int intact;
+    double force[3], torque[3];
+} rigid_conn_t;
+
+struct rigid_integrator_ops;
+
+struct rigid {
+    rigid_config_t cfg; /* copy; the array pointers of cfg are NOT kept (set to NULL) */
+    log_t log;
+    double t;
+    int have_prev;      /* a previous step exists: apply the trapezoidal load correction */
+    double h_prev;      /* length of the previous communication step */
+    double h_sub_current; /* sub-step in progress (diagnostics only) */
+    int nspheres, nbodies, nconn, conn_cap;
+    rigid_sphere_t *spheres;
+    rigid_body_t *bodies; /* capacity nspheres: there are never more bodies than spheres */
+    rigid_conn_t *conn;
+    /* derived, rebuilt after any topology change: sections of the free-body diagram */
+    unsigned char *section; /* conn_cap * nspheres: 1 if sphere is in the section of sphere a */
+    unsigned char *touch;   /* nspheres^2: pair touched at the end of the previous step (sticking is
+                               decided at the first step of a contact); part of the state */
+    /* scratch for force evaluation */
+    double *sf, *st;        /* per sphere external force and torque about its centre */
+    double *bf, *bt;        /* per body force and torque about com */
+    double (*sx)[3], (*sv)[3]; /* per sphere centre and velocity (last force evaluation) */
+    rigid_body_t *scratch_bodies;
+    const struct rigid_integrator_ops *ops;
+    void *integ;            /* integrator private data */
+};
+
+/* ---- small vector / quaternion helpers ---- */
+static inline double rv_dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static inline void rv_cross(const double a[3], const double b[3], double c[3])
+{
+    double x = a[1] * b[2] - a[2] * b[1];
+    double y = a[2] * b[0] - a[0] * b[2];
+    double z = a[0] * b[1] - a[1] * b[0];
+    c[0] = x;
+    c[1] = y;
+    c[2] = z;
+}
+static inline double rv_norm(const double a[3]) { return sqrt(rv_dot(a, a)); }
+static inline void rv_sub(const double a[3], const double b[3], double c[3])
+{
+    c[0] = a[0] - b[0];
+    c[1] = a[1] - b[1];
+    c[2] = a[2] - b[2];
+}
+/* row-major 3x3 matrix times vector */
+static inline void rm_mul(const double m[9], const double a[3], double c[3])
+{
+    double x = m[0] * a[0] + m[1] * a[1] + m[2] * a[2];
+    double y = m[3] * a[0] + m[4] * a[1] + m[5] * a[2];
+    double z = m[6] * a[0] + m[7] * a[1] + m[8] * a[2];
+    c[0] = x;
+    c[1] = y;
+    c[2] = z;
+}
+static inline void rm_tmul(const double m[9], const double a[3], double c[3])
+{
+    double x = m[0] * a[0] + m[3] * a[1] + m[6] * a[2];
+    double y = m[1] * a[0] + m[4] * a[1] + m[7] * a[2];
+    double z = m[2] * a[0] + m[5] * a[1] + m[8] * a[2];
+    c[0] = x;
+    c[1] = y;
+    c[2] = z;
+}
+/* rotation matrix of a quaternion, normalised on the fly (CVODE lets |q| drift) */
+static inline void rq_matrix(const double q[4], double m[9])
+{
+    double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    double s = 2.0 / n2;
+    double w = q[0], x = q[1], y = q[2], z = q[3];
+    m[0] = 1 - s * (y * y + z * z);
+    m[1] = s * (x * y - w * z);
+    m[2] = s * (x * z + w * y);
+    m[3] = s * (x * y + w * z);
+    m[4] = 1 - s * (x * x + z * z);
+    m[5] = s * (y * z - w * x);
+    m[6] = s * (x * z - w * y);
+    m[7] = s * (y * z + w * x);
+    m[8] = 1 - s * (x * x + y * y);
+}
+/* c = a (x) b */
+static inline void rq_mul(const double a[4], const double b[4], double c[4])
+{
+    double w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+    double x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
+    double y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
+    double z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
+    c[0] = w;
+    c[1] = x;
+    c[2] = y;
+    c[3] = z;
+}
+
+/* ---- body.c: mass properties of the sphere shares ---- */
+/* Mass properties of the share of sphere i of a union (spheres given by
+ * centres c and radii rad, n of them, all of one body): volume, centroid
+ * (absolute) and second moment about the centroid per unit density. */
+status_t rigid_share_props(const log_t *log, int n, const double (*c)[3], const double *rad, const int *ids, int i,
+                           double *vol, double cen[3], double j[9]);
+/* Builds one body from a set of spheres given with world-frame share data;
+ * sets com, q (principal axes), mass, inertia, and each sphere's body-frame
+ * data. world_s/world_j/world_p are per member sphere. */
+void rigid_body_build(rigid_t *r, int body, const int *members, int nm, double (*world_p)[3], double (*world_s)[3],
+                      double (*world_j)[9]);
+void rigid_body_rotation(const rigid_body_t *b, double m[9]);
+void rigid_body_omega(const rigid_body_t *b, double w[3]);
+void rigid_body_inertia_world(const rigid_body_t *b, double iw[9]);
+void rigid_sym_eigen(const double a[9], double eval[3], double evec[9]);
+
+/* ---- forces.c: all external forces on spheres and bodies ---- */
+typedef struct {
+    int sphere_i, sphere_j; /* j < 0: wall (-1 - 2*axis - side) */
+    double omega0;          /* sqrt(k/m_eff) of the contact, for the Verlet stability check */
+} rigid_contact_info_t;
+/* Evaluates sphere forces (r->sf, r->st) and body forces (r->bf, r->bt) for
+ * the body states in bodies (which may be a scratch copy). Returns 0, or >0
+ * for a recoverable problem (overlap beyond a radius), <0 for NaN. If worst
+ * is not NULL it receives the contact with the largest omega0. */
+int rigid_forces(rigid_t *r, const rigid_body_t *bodies, rigid_contact_info_t *worst);
+void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, double x[3], double v[3], double w[3]);
+/* contact.c: adds contact forces to r->sf/st; x: sphere centres */
+int rigid_contacts(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], rigid_contact_info_t *worst);
+
+/* ---- integrators ---- */
+typedef struct rigid_integrator_ops {
+    const char *name;
+    status_t (*create)(rigid_t *r, void **data);
+    void (*free)(void *data);
+    /* integrate the bodies over [t, t+h] in cfg.substeps sub-steps with the held load */
+    status_t (*advance)(rigid_t *r, void *data, double h);
+} rigid_integrator_ops_t;
+extern const rigid_integrator_ops_t rigid_verlet_ops;
+extern const rigid_integrator_ops_t rigid_cvode_ops;
+
+/* ---- connection.c ---- */
+#define RIGID_TOUCH_TOL 1e-9 /* relative: spheres touch when d <= (r_a + r_b)(1 + tol) */
+int rigid_bonded(const rigid_t *r, int i, int j); /* implicit bond between i and j (same scene body, touching) */
+status_t rigid_sections_update(rigid_t *r);
+void rigid_connections_eval(rigid_t *r);
+/* connection point (centre of the contact circle) and unit normal from a to b */
+void rigid_connection_point(const rigid_t *r, int a, int b, const double xa[3], const double xb[3], double pc[3],
+                            double n[3]);
+
+/* ---- topology.c: break-up and sticking ---- */
+status_t rigid_breakup(rigid_t *r, int *changed);
+status_t rigid_stick(rigid_t *r, int *changed);
+status_t rigid_regroup(rigid_t *r, int body);
+void rigid_touch_update(rigid_t *r); /* records which pairs touch now */
+
+#endif

@@ -1,0 +1,402 @@
+/* topology.c — break-up and sticking: the events that change which spheres
+ * form a body.
+ *
+ * Break-up (after each communication step): a connection breaks when its
+ * tensile normal force F_c.n (n from sphere a to b, positive = pulling the
+ * spheres apart) exceeds max_normal, its shear force |F_c - (F_c.n) n| exceeds
+ * max_shear, or |T_c| exceeds max_torque (a limit of 0 or +inf disables that
+ * criterion; compression never breaks). A body whose structure graph
+ * (connection.c) then falls apart becomes one body per connected component,
+ * each moving with the rigid motion of the old body at its new centre of mass:
+ *   v_k = v + omega x (com_k - com),  L_k = I_k omega.
+ * Sum M_k v_k = M v because the masses' first moments about com cancel, and
+ * the angular momenta add up to the old one for the same reason, so momentum
+ * and angular momentum are conserved to round-off.
+ *
+ * Sticking (paper Fig. 10): two spheres of different bodies that come into
+ * contact (touch or overlap now, did not at the end of the previous step, so
+ * the speed is the impact speed, not the speed at maximum compression of a
+ * bounce) with a relative normal speed |(v_i - v_j).n| < stick_speed at the
+ * contact point fuse their bodies into one (perfectly inelastic):
+ *   v = (M_A v_A + M_B v_B)/M,
+ *   L = sum_k [L_k + M_k (com_k - com) x (v_k - v)],
+ * which conserves momentum and angular momentum exactly; a new connection
+ * joins the two spheres (limits cfg.fuse_max_*), so the fused body can break
+ * there again. Mass properties are the sum of the spheres' fixed shares (the
+ * contact overlap is not re-sintered), so mass is conserved exactly. A body
+ * that sticks to a fixed body becomes part of the fixed body.
+ *
+ * New bodies are appended; when two bodies fuse the last body moves into the
+ * freed slot. Body ids are therefore not stable; sphere ids are. */
+#include "rigid_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct {
+    int *members;
+    double (*p)[3], (*s)[3], (*j)[9];
+} world_buf_t;
+
+static status_t buf_alloc(rigid_t *r, world_buf_t *w)
+{
+    size_t n = (size_t)r->nspheres;
+    w->members = malloc(n * sizeof(int));
+    w->p = malloc(n * sizeof *w->p);
+    w->s = malloc(n * sizeof *w->s);
+    w->j = malloc(n * sizeof *w->j);
+    if (!w->members || !w->p || !w->s || !w->j) {
+        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory in break-up/sticking");
+    }
+    return STATUS_OK;
+}
+
+static void buf_free(world_buf_t *w)
+{
+    free(w->members);
+    free(w->p);
+    free(w->s);
+    free(w->j);
+}
+
+/* World-frame share data of sphere i into slot k. */
+static void world_of(const rigid_t *r, int i, world_buf_t *w, int k)
+{
+    const rigid_sphere_t *s = &r->spheres[i];
+    const rigid_body_t *b = &r->bodies[s->body];
+    double R[9], d[3];
+    rq_matrix(b->q, R);
+    rm_mul(R, s->p, d);
+    for (int a = 0; a < 3; a++) {
+        w->p[k][a] = b->com[a] + d[a];
+    }
+    rm_mul(R, s->s, d);
+    for (int a = 0; a < 3; a++) {
+        w->s[k][a] = b->com[a] + d[a];
+    }
+    for (int x = 0; x < 3; x++) {
+        for (int y = 0; y < 3; y++) {
+            double acc = 0.0;
+            for (int u = 0; u < 3; u++) {
+                for (int v = 0; v < 3; v++) {
+                    acc += R[3 * x + u] * s->j[3 * u + v] * R[3 * y + v];
+                }
+            }
+            w->j[k][3 * x + y] = acc;
+        }
+    }
+    w->members[k] = i;
+}
+
+static int edge_between(const rigid_t *r, int i, int j)
+{
+    for (int k = 0; k < r->nconn; k++) {
+        const rigid_conn_t *c = &r->conn[k];
+        if (c->intact && ((c->a == i && c->b == j) || (c->a == j && c->b == i))) {
+            return 1;
+        }
+    }
+    return rigid_bonded(r, i, j);
+}
+
+/* Splits body bi into its connected components (if more than one). */
+status_t rigid_regroup(rigid_t *r, int bi)
+{
+    int ns = r->nspheres;
+    int *comp = malloc((size_t)ns * sizeof(int)), *stack = malloc((size_t)ns * sizeof(int));
+    world_buf_t w = {0};
+    status_t st = buf_alloc(r, &w);
+    if (comp == NULL || stack == NULL) {
+        st = log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory in break-up");
+    }
+    if (st != STATUS_OK) {
+        goto cleanup;
+    }
+    int ncomp = 0;
+    for (int i = 0; i < ns; i++) {
+        comp[i] = -1;
+    }
+    for (int i = 0; i < ns; i++) {
+        if (r->spheres[i].body != bi || comp[i] >= 0) {
+            continue;
+        }
+        int top = 0;
+        stack[top++] = i;
+        comp[i] = ncomp;
+        while (top > 0) {
+            int u = stack[--top];
+            for (int v = 0; v < ns; v++) {
+                if (comp[v] < 0 && r->spheres[v].body == bi && edge_between(r, u, v)) {
+                    comp[v] = ncomp;
+                    stack[top++] = v;
+                }
+            }
+        }
+        ncomp++;
+    }
+    if (ncomp <= 1) {
+        goto cleanup;
+    }
+    rigid_body_t old = r->bodies[bi];
+    double w0[3] = {0, 0, 0};
+    if (!old.fixed) {
+        rigid_body_omega(&old, w0);
+    }
+    /* world data of all members first: rebuilding a body changes the frame */
+    int nm = 0;
+    for (int i = 0; i < ns; i++) {
+        if (r->spheres[i].body == bi) {
+            world_of(r, i, &w, nm++);
+        }
+    }
+    world_buf_t sub = {0};
+    if (buf_alloc(r, &sub) != STATUS_OK) {
+        buf_free(&sub);
+        st = log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory in break-up");
+        goto cleanup;
+    }
+    for (int c = 0; c < ncomp; c++) {
+        int id = c == 0 ? bi : r->nbodies++;
+        int k = 0;
+        for (int m = 0; m < nm; m++) {
+            if (comp[w.members[m]] == c) {
+                sub.members[k] = w.members[m];
+                memcpy(sub.p[k], w.p[m], sizeof w.p[m]);
+                memcpy(sub.s[k], w.s[m], sizeof w.s[m]);
+                memcpy(sub.j[k], w.j[m], sizeof w.j[m]);
+                k++;
+            }
+        }
+        rigid_body_build(r, id, sub.members, k, sub.p, sub.s, sub.j);
+        rigid_body_t *nb = &r->bodies[id];
+        nb->fixed = old.fixed;
+        double rr[3], u[3], iw[9];
+        rv_sub(nb->com, old.com, rr);
+        rv_cross(w0, rr, u);
+        rigid_body_inertia_world(nb, iw);
+        rm_mul(iw, w0, nb->l);
+        for (int a = 0; a < 3; a++) {
+            nb->v[a] = old.fixed ? 0.0 : old.v[a] + u[a];
+        }
+    }
+    buf_free(&sub);
+cleanup:
+    free(comp);
+    free(stack);
+    buf_free(&w);
+    return st;
+}
+
+static int limit_exceeded(double value, double limit) { return limit > 0.0 && isfinite(limit) && value > limit; }
+
+status_t rigid_breakup(rigid_t *r, int *changed)
+{
+    *changed = 0;
+    int nb0 = r->nbodies;
+    unsigned char *hit = calloc((size_t)r->nspheres, 1);
+    if (hit == NULL) {
+        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory in break-up");
+    }
+    for (int k = 0; k < r->nconn; k++) {
+        rigid_conn_t *c = &r->conn[k];
+        if (!c->intact) {
+            continue;
+        }
+        double pc[3], n[3];
+        rigid_connection_point(r, c->a, c->b, r->sx[c->a], r->sx[c->b], pc, n);
+        double fn = rv_dot(c->force, n), sh[3];
+        for (int a = 0; a < 3; a++) {
+            sh[a] = c->force[a] - fn * n[a];
+        }
+        double fs = rv_norm(sh), tq = rv_norm(c->torque);
+        const char *why = NULL;
+        double val = 0.0, lim = 0.0;
+        if (limit_exceeded(fn, c->max_normal)) {
+            why = "tensile force", val = fn, lim = c->max_normal;
+        } else if (limit_exceeded(fs, c->max_shear)) {
+            why = "shear force", val = fs, lim = c->max_shear;
+        } else if (limit_exceeded(tq, c->max_torque)) {
+            why = "torque", val = tq, lim = c->max_torque;
+        }
+        if (why != NULL) {
+            c->intact = 0;
+            hit[r->spheres[c->a].body] = 1;
+            *changed = 1;
+            log_msg(&r->log, STATUS_OK, RIGID_CAT,
+                    "connection %d (spheres %d-%d, body %d) broke at t=%.9g s: %s %g exceeds the limit %g", k, c->a,
+                    c->b, r->spheres[c->a].body, r->t, why, val, lim);
+        }
+    }
+    status_t st = STATUS_OK;
+    for (int b = 0; b < nb0 && st == STATUS_OK; b++) {
+        if (hit[b]) {
+            st = rigid_regroup(r, b);
+        }
+    }
+    free(hit);
+    return st;
+}
+
+static status_t add_connection(rigid_t *r, int a, int b)
+{
+    if (r->nconn == r->conn_cap) {
+        int cap = r->conn_cap < 8 ? 16 : 2 * r->conn_cap;
+        rigid_conn_t *nc = realloc(r->conn, (size_t)cap * sizeof *nc);
+        if (nc == NULL) {
+            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory adding a connection");
+        }
+        r->conn = nc;
+        unsigned char *sec = realloc(r->section, (size_t)cap * (size_t)r->nspheres);
+        if (sec == NULL) {
+            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory adding a connection");
+        }
+        r->section = sec;
+        r->conn_cap = cap;
+    }
+    rigid_conn_t *c = &r->conn[r->nconn++];
+    memset(c, 0, sizeof *c);
+    c->a = a;
+    c->b = b;
+    c->max_normal = r->cfg.fuse_max_normal;
+    c->max_shear = r->cfg.fuse_max_shear;
+    c->max_torque = r->cfg.fuse_max_torque;
+    c->intact = 1;
+    return STATUS_OK;
+}
+
+/* Fuses body B into body A (A < B); the last body moves into slot B. */
+static status_t fuse(rigid_t *r, int A, int B)
+{
+    world_buf_t w = {0};
+    status_t st = buf_alloc(r, &w);
+    if (st != STATUS_OK) {
+        buf_free(&w);
+        return st;
+    }
+    rigid_body_t ba = r->bodies[A], bb = r->bodies[B];
+    int fixed = ba.fixed || bb.fixed;
+    int nm = 0;
+    for (int i = 0; i < r->nspheres; i++) {
+        if (r->spheres[i].body == A || r->spheres[i].body == B) {
+            world_of(r, i, &w, nm++);
+        }
+    }
+    rigid_body_build(r, A, w.members, nm, w.p, w.s, w.j);
+    rigid_body_t *nb = &r->bodies[A];
+    nb->fixed = fixed;
+    if (fixed) {
+        memset(nb->v, 0, sizeof nb->v);
+        memset(nb->l, 0, sizeof nb->l);
+    } else {
+        double m = ba.mass + bb.mass;
+        for (int a = 0; a < 3; a++) {
+            nb->v[a] = (ba.mass * ba.v[a] + bb.mass * bb.v[a]) / m;
+        }
+        const rigid_body_t *parts[2] = {&ba, &bb};
+        for (int a = 0; a < 3; a++) {
+            nb->l[a] = 0.0;
+        }
+        for (int k = 0; k < 2; k++) {
+            double d[3], dv[3], x[3];
+            rv_sub(parts[k]->com, nb->com, d);
+            rv_sub(parts[k]->v, nb->v, dv);
+            rv_cross(d, dv, x);
+            for (int a = 0; a < 3; a++) {
+                nb->l[a] += parts[k]->l[a] + parts[k]->mass * x[a];
+            }
+        }
+    }
+    int last = r->nbodies - 1;
+    if (B != last) {
+        r->bodies[B] = r->bodies[last];
+        for (int i = 0; i < r->nspheres; i++) {
+            if (r->spheres[i].body == last) {
+                r->spheres[i].body = B;
+            }
+        }
+    }
+    r->nbodies--;
+    buf_free(&w);
+    return STATUS_OK;
+}
+
+status_t rigid_stick(rigid_t *r, int *changed)
+{
+    *changed = 0;
+    if (!(r->cfg.stick_speed > 0.0)) {
+        return STATUS_OK;
+    }
+    for (;;) {
+        int found = 0;
+        for (int i = 0; i < r->nspheres && !found; i++) {
+            for (int j = i + 1; j < r->nspheres && !found; j++) {
+                const rigid_sphere_t *si = &r->spheres[i], *sj = &r->spheres[j];
+                if (si->body == sj->body) {
+                    continue;
+                }
+                const rigid_body_t *bi = &r->bodies[si->body], *bj = &r->bodies[sj->body];
+                if (bi->fixed && bj->fixed) {
+                    continue;
+                }
+                double xi[3], xj[3], vi[3], vj[3], d[3];
+                rigid_sphere_world(r, r->bodies, i, xi, vi, NULL);
+                rigid_sphere_world(r, r->bodies, j, xj, vj, NULL);
+                rv_sub(xj, xi, d);
+                double dist = rv_norm(d);
+                if (dist > (si->radius + sj->radius) * (1.0 + RIGID_TOUCH_TOL) || dist == 0.0 ||
+                    r->touch[(size_t)i * r->nspheres + j]) {
+                    continue;
+                }
+                double pc[3], n[3], wi[3], wj[3], ai[3], aj[3], ui[3], uj[3], vr[3];
+                rigid_connection_point(r, i, j, xi, xj, pc, n);
+                rigid_sphere_world(r, r->bodies, i, NULL, NULL, wi);
+                rigid_sphere_world(r, r->bodies, j, NULL, NULL, wj);
+                rv_sub(pc, bi->com, ai);
+                rv_sub(pc, bj->com, aj);
+                rv_cross(wi, ai, ui);
+                rv_cross(wj, aj, uj);
+                for (int a = 0; a < 3; a++) {
+                    vr[a] = (bi->fixed ? 0.0 : bi->v[a] + ui[a]) - (bj->fixed ? 0.0 : bj->v[a] + uj[a]);
+                }
+                double vn = fabs(rv_dot(vr, n));
+                if (vn >= r->cfg.stick_speed) {
+                    continue;
+                }
+                int A = si->body < sj->body ? si->body : sj->body;
+                int B = si->body < sj->body ? sj->body : si->body;
+                log_msg(&r->log, STATUS_OK, RIGID_CAT,
+                        "bodies %d and %d stick at t=%.9g s (spheres %d-%d, normal speed %g m/s below %g m/s)", A, B,
+                        r->t, i, j, vn, r->cfg.stick_speed);
+                status_t st = add_connection(r, i, j);
+                if (st == STATUS_OK) {
+                    st = fuse(r, A, B);
+                }
+                if (st != STATUS_OK) {
+                    return st;
+                }
+                found = 1;
+                *changed = 1;
+            }
+        }
+        if (!found) {
+            break;
+        }
+    }
+    return STATUS_OK;
+}
+
+void rigid_touch_update(rigid_t *r)
+{
+    int ns = r->nspheres;
+    for (int i = 0; i < ns; i++) {
+        double xi[3];
+        rigid_sphere_world(r, r->bodies, i, xi, NULL, NULL);
+        for (int j = i + 1; j < ns; j++) {
+            double xj[3], d[3];
+            rigid_sphere_world(r, r->bodies, j, xj, NULL, NULL);
+            rv_sub(xj, xi, d);
+            int t = rv_norm(d) <= (r->spheres[i].radius + r->spheres[j].radius) * (1.0 + RIGID_TOUCH_TOL);
+            r->touch[(size_t)i * ns + j] = (unsigned char)t;
+        }
+    }
+}

@@ -1,0 +1,459 @@
+/* test_spheres.c — spheres as moving curved boundaries (issue 3).
+ *
+ * References:
+ * - Sangani & Acrivos, Int. J. Multiphase Flow 8 (1982) 343, Eq. 60 / Table 1:
+ *   drag K(chi) of a simple cubic array of spheres in Stokes flow, chi = D/L,
+ *   K = F / (6 pi mu a U) with F the total force per sphere (hydrodynamic plus
+ *   the driving body force on the sphere's volume, i.e. F_b L^3) and U the
+ *   superficial velocity (fluid velocity summed over the fluid cells divided
+ *   by all cells of the period), as in shared/reference/validation-references.md.
+ * - Hofmann et al. (1999), torque on a sphere rotating in a periodic cube:
+ *   T = -8 pi mu a^3 Omega / (1 - phi - 1.95708 phi^(10/3)).
+ * - Ray-sphere intersection (the paper's Eq. 5) against brute force. */
+#include "fluid_tests.h"
+#include "test_util.h"
+
+#include "../../fluid/fluid_internal.h"
+#include "../../fluid/lattice.h"
+
+#include <CUnit/CUnit.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PI 3.14159265358979323846
+
+static const double SA[31] = {1.000000, 1.418649,  2.012564,   2.331523,   2.564809,  2.584787,  2.873609, 3.340163,
+                              3.536763, 3.504092,  3.253622,   2.689757,   2.037769,  1.809341,  1.877347, 1.534685,
+                              0.9034708, 0.2857896, -0.5512626, -1.278724, 1.013350,  5.492491,  4.615388,
+                              -0.5736023, -2.865924, -4.709215, -6.870076, 0.1455304, 12.51891,  9.742811,
+                              -5.566269};
+
+static double sangani_acrivos(double chi)
+{
+    double k = 0.0, p = 1.0;
+    for (int s = 0; s < 31; s++) {
+        k += SA[s] * p;
+        p *= chi;
+    }
+    return k;
+}
+
+static scene_body_t *one_sphere(scene_t *s, const double c[3], double r, motion_t motion)
+{
+    static scene_sphere_t sph[4];
+    static scene_body_t body[4];
+    static int next = 0;
+    const int k = next++ % 4;
+    memset(&body[k], 0, sizeof body[k]);
+    sph[k].radius = r;
+    memcpy(sph[k].center, c, sizeof sph[k].center);
+    body[k].nspheres = 1;
+    body[k].spheres = &sph[k];
+    body[k].density = 2.0;
+    body[k].motion = motion;
+    s->nbodies = 1;
+    s->bodies = &body[k];
+    return &body[k];
+}
+
+/* ---- geometry ------------------------------------------------------------ */
+
+/* Brute-force delta: smallest t in (0,1] with |x + t c - (cen + image)| = r
+ * over the 27 periodic images, by bisection on a fine scan. */
+static double brute_delta(const double x[3], int q, const scene_t *s, const grid_t *g)
+{
+    double best = 2.0;
+    for (int b = 0; b < s->nbodies; b++) {
+        for (int i = 0; i < s->bodies[b].nspheres; i++) {
+            const scene_sphere_t *sp = &s->bodies[b].spheres[i];
+            for (int im = 0; im < 27; im++) {
+                const int o[3] = {im % 3 - 1, im / 3 % 3 - 1, im / 9 - 1};
+                double cen[3];
+                int skip = 0;
+                for (int a = 0; a < 3; a++) {
+                    if (o[a] != 0 && s->domain.faces[2 * a].type != FACE_PERIODIC) {
+                        skip = 1;
+                    }
+                    cen[a] = sp->center[a] + 0.5 + o[a] * g->n[a];
+                }
+                if (skip) {
+                    continue;
+                }
+                /* inside(t) switches from 0 to 1 at the hit */
+                double lo = 0.0, hi = -1.0;
+                for (int k = 1; k <= 1000; k++) {
+                    const double t = k / 1000.0;
+                    double d2 = 0.0;
+                    for (int a = 0; a < 3; a++) {
+                        const double d = x[a] + t * lb_c[q][a] - cen[a];
+                        d2 += d * d;
+                    }
+                    if (d2 <= sp->radius * sp->radius) {
+                        hi = t;
+                        break;
+                    }
+                    lo = t;
+                }
+                if (hi < 0.0) {
+                    continue;
+                }
+                for (int it = 0; it < 60; it++) {
+                    const double m = 0.5 * (lo + hi);
+                    double d2 = 0.0;
+                    for (int a = 0; a < 3; a++) {
+                        const double d = x[a] + m * lb_c[q][a] - cen[a];
+                        d2 += d * d;
+                    }
+                    if (d2 <= sp->radius * sp->radius) {
+                        hi = m;
+                    } else {
+                        lo = m;
+                    }
+                }
+                best = fmin(best, hi);
+            }
+        }
+    }
+    return best;
+}
+
+/* Every link's delta against brute force, and the link set against the set of
+ * (fluid, solid) neighbour pairs. Spheres in lattice units (dx = 1 m). */
+static void check_links(scene_t *s)
+{
+    fluid_t *fl = test_fluid(s);
+    const grid_t *g = &fl->g;
+    const spheres_t *sp = &fl->spheres;
+    size_t pairs = 0;
+    for (int z = 1; z <= g->n[2]; z++) {
+        for (int y = 1; y <= g->n[1]; y++) {
+            for (int x = 1; x <= g->n[0]; x++) {
+                if (fl->flags[grid_index(g, x, y, z)] != CELL_FLUID) {
+                    continue;
+                }
+                for (int q = 1; q < LB_Q; q++) {
+                    int B[3] = {x + lb_c[q][0], y + lb_c[q][1], z + lb_c[q][2]}, out = 0;
+                    for (int a = 0; a < 3; a++) {
+                        if (B[a] < 1 || B[a] > g->n[a]) {
+                            if (s->domain.faces[2 * a].type != FACE_PERIODIC) {
+                                out = 1;
+                            }
+                            B[a] = (B[a] - 1 + g->n[a]) % g->n[a] + 1;
+                        }
+                    }
+                    pairs += !out && fl->flags[grid_index(g, B[0], B[1], B[2])] == CELL_SOLID;
+                }
+            }
+        }
+    }
+    CU_ASSERT_EQUAL(sp->nlinks, pairs);
+    double maxerr = 0.0;
+    for (size_t j = 0; j < sp->nlinks; j++) {
+        const sphere_link_t *l = &sp->links[j];
+        const double x[3] = {(double)(l->xf % (size_t)g->s[0]), (double)(l->xf / (size_t)g->s[0] % (size_t)g->s[1]),
+                             (double)(l->xf / ((size_t)g->s[0] * (size_t)g->s[1]))};
+        const double ref = brute_delta(x, l->q, s, g);
+        CU_ASSERT(l->delta > 0.0 && l->delta <= 1.0);
+        maxerr = fmax(maxerr, fabs(l->delta - ref));
+    }
+    CU_ASSERT(maxerr < 1e-12);
+    fluid_free(fl);
+}
+
+static void test_links_single_and_hand_values(void)
+{
+    scene_t s = test_box(12, 12, 12, 1.0, COLLISION_TRT);
+    const double c[3] = {5.5, 5.5, 5.5}; /* lattice X = 6 */
+    one_sphere(&s, c, 2.5, MOTION_FIXED);
+    check_links(&s);
+    /* by hand: cell (9,6,6) looking along -x hits the surface at X = 8.5: delta 0.5;
+     * cell (8,8,6) along (-1,-1,0): (2-t)^2 * 2 = 6.25, t = 2 - 2.5/sqrt(2) */
+    fluid_t *fl = test_fluid(&s);
+    int found = 0;
+    for (size_t j = 0; j < fl->spheres.nlinks; j++) {
+        const sphere_link_t *l = &fl->spheres.links[j];
+        if (l->xf == grid_index(&fl->g, 9, 6, 6) && l->q == 10) {
+            CU_ASSERT_DOUBLE_EQUAL(l->delta, 0.5, 1e-14);
+            found++;
+        }
+        if (l->xf == grid_index(&fl->g, 8, 8, 6) && l->q == 13) {
+            CU_ASSERT_DOUBLE_EQUAL(l->delta, 2.0 - 2.5 / sqrt(2.0), 1e-14);
+            found++;
+        }
+    }
+    CU_ASSERT_EQUAL(found, 2);
+    fluid_free(fl);
+}
+
+static void test_links_overlapping_and_periodic(void)
+{
+    /* two overlapping spheres of one body, one of them cut by the x and y faces */
+    scene_t s = test_box(14, 12, 10, 1.0, COLLISION_TRT);
+    static scene_sphere_t sph[2] = {{{0.7, 0.4, 4.6}, 2.6}, {{2.9, 1.1, 5.2}, 2.2}};
+    static scene_body_t body;
+    memset(&body, 0, sizeof body);
+    body.nspheres = 2;
+    body.spheres = sph;
+    body.density = 2.0;
+    body.motion = MOTION_FIXED;
+    s.nbodies = 1;
+    s.bodies = &body;
+    check_links(&s);
+    /* and next to a no-slip wall in z */
+    s.domain.faces[4].type = s.domain.faces[5].type = FACE_NO_SLIP;
+    sph[0].center[2] = 2.8;
+    sph[1].center[2] = 2.4;
+    check_links(&s);
+}
+
+/* ---- drag in a periodic array ------------------------------------------- */
+
+typedef struct {
+    double k_rel;    /* K / K_SA - 1 */
+    double balance;  /* F_h / (F_b N_fluid) - 1 */
+} drag_t;
+
+static drag_t array_drag(int L, double a, double tau, collision_t op, boundary_scheme_t scheme)
+{
+    scene_t s = test_box(L, L, L, tau, op);
+    const double c[3] = {L / 2.0 - 0.5 + 0.25, L / 2.0 - 0.5 + 0.1, L / 2.0 - 0.5 - 0.15};
+    one_sphere(&s, c, a, MOTION_FIXED);
+    s.fluid.boundary_scheme = scheme;
+    s.fluid.force_method = FORCE_GALILEAN;
+    const double nu = (tau - 0.5) / 3.0, fb = 1e-6 * nu;
+    s.fluid.body_force[0] = fb;
+    fluid_t *fl = test_fluid(&s);
+    double fold = 0.0, f[3], t[3];
+    for (long n = 0; n < 200000; n += 100) {
+        test_run(fl, 100);
+        fluid_sphere_load_lattice(fl, 0, f, t);
+        if (fabs(f[0] - fold) < 1e-10 * fabs(f[0])) {
+            break;
+        }
+        fold = f[0];
+    }
+    const int n = L * L * L;
+    double *u = malloc(sizeof(double) * 3 * n);
+    unsigned char *flags = malloc(n);
+    double *rho = malloc(sizeof(double) * n);
+    fluid_moments_lattice(fl, rho, u);
+    fluid_flags(fl, flags);
+    double usum = 0.0, rsum = 0.0;
+    long nfluid = 0;
+    for (int i = 0; i < n; i++) {
+        if (flags[i] == 0) {
+            usum += u[3 * i];
+            rsum += rho[i];
+            nfluid++;
+        }
+    }
+    free(rho);
+    const double U = usum / n, mu = nu;
+    printf(" [mean density %.6f]", rsum / nfluid);
+    drag_t d;
+    d.k_rel = fb * n / (6.0 * PI * mu * a * U) / sangani_acrivos(2.0 * a / L) - 1.0;
+    d.balance = f[0] / (fb * nfluid) - 1.0;
+    free(u);
+    free(flags);
+    fluid_free(fl);
+    return d;
+}
+
+static void test_periodic_array_r4(void)
+{
+    const double taus[3] = {0.6, 1.0, 1.5};
+    const boundary_scheme_t schemes[2] = {BOUNDARY_CLI, BOUNDARY_YU};
+    for (int k = 0; k < 2; k++) {
+        for (int i = 0; i < 3; i++) {
+            const drag_t d = array_drag(16, 4.0, taus[i], COLLISION_TRT, schemes[k]);
+            printf("\n    K r=4 %s tau %.1f: %+.3f%% (force balance %+.1e)", schemes[k] == BOUNDARY_CLI ? "cli" : "yu",
+                   taus[i], 100 * d.k_rel, d.balance);
+            CU_ASSERT(fabs(d.k_rel) < 0.005);
+            CU_ASSERT(fabs(d.balance) < 1e-4); /* interpolated walls conserve mass only approximately */
+        }
+    }
+}
+
+static void test_dilute_array(void)
+{
+    /* D/L = 0.2: a = 4, L = 40 */
+    const drag_t d = array_drag(40, 4.0, 1.0, COLLISION_TRT, BOUNDARY_CLI);
+    printf("\n    K dilute r=4 L=40 cli tau 1.0: %+.3f%%", 100 * d.k_rel);
+    CU_ASSERT(fabs(d.k_rel) < 0.01);
+}
+
+static void test_periodic_array_r8(void)
+{
+    const double taus[3] = {0.6, 1.0, 1.5};
+    for (int i = 0; i < 3; i++) {
+        const drag_t d = array_drag(32, 8.0, taus[i], COLLISION_TRT, BOUNDARY_CLI);
+        printf("\n    K r=8 cli tau %.1f: %+.3f%%", taus[i], 100 * d.k_rel);
+        CU_ASSERT(fabs(d.k_rel) < 0.002);
+    }
+}
+
+/* ---- rotation ------------------------------------------------------------- */
+
+static void test_rotating_sphere_torque(void)
+{
+    const int L = 32;
+    const double a = 8.0, tau = 1.0, nu = (tau - 0.5) / 3.0, omega = 2e-4;
+    scene_t s = test_box(L, L, L, tau, COLLISION_TRT);
+    const double c[3] = {L / 2.0 - 0.5, L / 2.0 - 0.5 + 0.2, L / 2.0 - 0.5 - 0.3};
+    scene_body_t *b = one_sphere(&s, c, a, MOTION_PRESCRIBED);
+    b->angular_velocity[2] = omega;
+    s.fluid.boundary_scheme = BOUNDARY_CLI;
+    fluid_t *fl = test_fluid(&s);
+    double f[3], t[3], told = 0.0;
+    for (long n = 0; n < 100000; n += 100) {
+        test_run(fl, 100);
+        fluid_sphere_load_lattice(fl, 0, f, t);
+        if (fabs(t[2] - told) < 1e-9 * fabs(t[2])) {
+            break;
+        }
+        told = t[2];
+    }
+    const double phi = 4.0 / 3.0 * PI * a * a * a / (L * L * L);
+    const double ref = -8.0 * PI * nu * a * a * a * omega / (1.0 - phi - 1.95708 * pow(phi, 10.0 / 3.0));
+    printf("\n    rotating sphere r=8: torque %+.3f%% of Hofmann", 100 * (t[2] / ref - 1.0));
+    CU_ASSERT(fabs(t[2] / ref - 1.0) < 0.02);
+    fluid_free(fl);
+}
+
+/* ---- moving sphere: momentum book-keeping and fluctuations --------------- */
+
+typedef struct {
+    double drift_per_step; /* |P_fluid + impulse - P0| / steps, lattice */
+    double fluct;          /* std/mean of the drag after the transient */
+    double mean;
+} moving_t;
+
+/* A sphere moved at constant velocity through a periodic box whose fluid is
+ * pushed the other way by a body force, so that the drag has a steady mean
+ * (F_b times the fluid volume) about which it fluctuates as cells are covered
+ * and uncovered. The fluid starts at its expected mean velocity. */
+static moving_t moving_sphere(boundary_scheme_t scheme, force_method_t force, refill_t refill, collision_t op,
+                              double a, long steps, int driven)
+{
+    const int L = (int)(4 * a);
+    const double tau = 0.8, nu = (tau - 0.5) / 3.0, urel = 0.02;
+    scene_t s = test_box(L, L, L, tau, op);
+    const double c[3] = {L / 2.0, L / 2.0 + 0.13, L / 2.0 - 0.21};
+    scene_body_t *b = one_sphere(&s, c, a, MOTION_PRESCRIBED);
+    b->velocity[0] = 0.5 * urel;
+    b->velocity[1] = 0.05 * urel;
+    s.fluid.boundary_scheme = scheme;
+    s.fluid.force_method = force;
+    s.fluid.refill = refill;
+    if (driven) {
+        /* Stokes drag of the array, K(0.5) = 2.842 (Sangani & Acrivos 1982) */
+        const double drag = 6.0 * PI * nu * a * urel * sangani_acrivos(0.5);
+        s.fluid.body_force[0] = -drag / ((double)L * L * L);
+        s.fluid.initial_velocity[0] = -0.5 * urel;
+    }
+    fluid_t *fl = test_fluid(&s);
+    double m0, p0[3], m, p[3], impulse[3] = {0, 0, 0}, f[3], t[3];
+    fluid_totals_lattice(fl, &m0, p0);
+    double sum = 0.0, sum2 = 0.0;
+    long cnt = 0;
+    for (long n = 0; n < steps; n++) {
+        fluid_step(fl);
+        fluid_sphere_load_lattice(fl, 0, f, t);
+        for (int k = 0; k < 3; k++) {
+            impulse[k] += f[k];
+        }
+        if (n >= steps / 2) {
+            fluid_sphere_load(fl, 0, f, t); /* with averaging when the scene asks for it */
+            sum += f[0];
+            sum2 += f[0] * f[0];
+            cnt++;
+        }
+    }
+    fluid_totals_lattice(fl, &m, p);
+    moving_t r;
+    double dr = 0.0;
+    for (int k = 0; k < 3; k++) {
+        dr += pow(p[k] + impulse[k] - p0[k], 2.0);
+    }
+    r.drift_per_step = sqrt(dr) / steps;
+    r.mean = sum / cnt;
+    r.fluct = sqrt(fmax(sum2 / cnt - r.mean * r.mean, 0.0)) / fabs(r.mean);
+    fluid_free(fl);
+    return r;
+}
+
+static void test_moving_sphere_momentum_bounce_back(void)
+{
+    const moving_t m = moving_sphere(BOUNDARY_BOUNCE_BACK, FORCE_MOMENTUM_EXCHANGE, REFILL_EQUILIBRIUM,
+                                     COLLISION_TRT, 4.0, 400, 0);
+    printf("\n    bounce-back: momentum drift %.2e per step (drag %.3e)", m.drift_per_step, m.mean);
+    CU_ASSERT(m.drift_per_step < 1e-14 * 1e3 * fabs(m.mean) + 1e-15);
+}
+
+static void test_moving_sphere_fluctuation(void)
+{
+    const moving_t paper = moving_sphere(BOUNDARY_YU, FORCE_MOMENTUM_EXCHANGE, REFILL_EQUILIBRIUM, COLLISION_TRT,
+                                         5.0, 3000, 1);
+    const moving_t best = moving_sphere(BOUNDARY_CLI, FORCE_GALILEAN, REFILL_EXTRAPOLATION, COLLISION_TRT, 5.0,
+                                        3000, 1);
+    printf("\n    drag fluctuation: paper (yu, mem, equilibrium) %.4f, cli + galilean + extrapolation %.4f",
+           paper.fluct, best.fluct);
+    CU_ASSERT(best.fluct <= paper.fluct / 3.0);
+}
+
+/* ---- shift invariance across a periodic face ------------------------------ */
+
+static void test_shift_across_periodic_face(void)
+{
+    const int L = 20;
+    double f0[3], t0[3];
+    for (int k = 0; k < 2; k++) {
+        scene_t s = test_box(L, L, L, 0.9, COLLISION_TRT);
+        double c[3] = {3.3, 10.2, 9.7};
+        if (k == 1) {
+            c[0] += 7.0 - L; /* whole cells, across the x face */
+            c[0] += L;
+            c[0] = fmod(c[0] + 7.0 * 0, L);
+        }
+        if (k == 1) {
+            c[0] = 3.3 - 7.0 + L; /* = 16.3: the same sphere 13 cells on, wrapped */
+        }
+        one_sphere(&s, c, 4.2, MOTION_FIXED);
+        s.fluid.boundary_scheme = BOUNDARY_QUADRATIC;
+        s.fluid.body_force[0] = 1e-6;
+        s.fluid.body_force[2] = -0.5e-6;
+        fluid_t *fl = test_fluid(&s);
+        test_run(fl, 150);
+        double f[3], t[3];
+        fluid_sphere_load_lattice(fl, 0, f, t);
+        if (k == 0) {
+            memcpy(f0, f, sizeof f0);
+            memcpy(t0, t, sizeof t0);
+        } else {
+            for (int a = 0; a < 3; a++) {
+                CU_ASSERT(fabs(f[a] - f0[a]) < 1e-12 * fabs(f0[0]));
+                CU_ASSERT(fabs(t[a] - t0[a]) < 1e-12 * fabs(f0[0]) * 4.2);
+            }
+        }
+        fluid_free(fl);
+    }
+}
+
+void spheres_register_tests(int validate)
+{
+    CU_pSuite s = CU_add_suite("spheres", NULL, NULL);
+    CU_add_test(s, "links and delta: single sphere, hand values", test_links_single_and_hand_values);
+    CU_add_test(s, "links and delta: overlapping, periodic, at a wall", test_links_overlapping_and_periodic);
+    CU_add_test(s, "rotating sphere r=8: Hofmann torque within 2%", test_rotating_sphere_torque);
+    CU_add_test(s, "moving sphere, bounce-back: momentum conserved", test_moving_sphere_momentum_bounce_back);
+    CU_add_test(s, "shift across a periodic face: same force", test_shift_across_periodic_face);
+    if (validate) {
+        CU_pSuite v = CU_add_suite("spheres-validate", NULL, NULL);
+        CU_add_test(v, "periodic array r=8: Sangani-Acrivos within 0.2%", test_periodic_array_r8);
+        CU_add_test(v, "dilute periodic array D/L = 0.2", test_dilute_array);
+        CU_add_test(v, "periodic array r=4: Sangani-Acrivos within 0.5%", test_periodic_array_r4);
+        CU_add_test(v, "moving sphere: fluctuation a third of the paper's", test_moving_sphere_fluctuation);
+    }
+}

@@ -1,0 +1,175 @@
+/* test_contact.c — contact laws against their analytic solutions.
+ *
+ * Linear spring-dashpot with k = m_eff (pi^2 + ln^2 e)/t_c^2 and
+ * c = -2 m_eff ln e / t_c: the overlap obeys a damped oscillator
+ * delta'' + (c/m_eff) delta' + (k/m_eff) delta = 0 whose first zero after
+ * impact is exactly at t_c and whose rebound speed is exactly e times the
+ * impact speed (Schwager & Poeschel, Computational Granular Dynamics, 2005,
+ * section 3.1). Head-on collision of two equal spheres: measured contact
+ * time and restitution within 1 %, for both integrators.
+ *
+ * Hertz, elastic (e = 1): contact duration t = 2.9432 (15 m_eff /
+ * (16 E* sqrt(R*)))^(2/5) v^(-1/5) (Johnson, Contact Mechanics, 1985,
+ * section 11.4; the constant is 2 int_0^1 dx / sqrt(1 - x^(5/2))).
+ *
+ * Stiff contact (contact time 100 x below the step): Verlet must report the
+ * instability (STATUS_ERROR naming the contact) instead of returning garbage;
+ * CVODE BDF must complete and leave the sphere resting on the wall. */
+#include "test_rigid_util.h"
+
+typedef struct {
+    double tc, e; /* measured contact time and restitution */
+    int ok;
+} collision_t;
+
+static collision_t head_on(rigid_contact_model_t model, rigid_integrator_t integ, rigid_cvode_method_t meth, double e,
+                           double tc, double h, double v0)
+{
+    collision_t out = {0, 0, 0};
+    double rr = 1e-3, gap = 2e-5;
+    rigid_sphere_cfg_t s[2] = {{{-rr - gap, 0, 0}, rr, 0}, {{rr + gap, 0, 0}, rr, 1}};
+    rigid_body_cfg_t b[2] = {{2500.0, {v0, 0, 0}, {0, 0, 0}, 0}, {2500.0, {-v0, 0, 0}, {0, 0, 0}, 0}};
+    rigid_config_t cfg = test_cfg(2, s, 2, b, 0, NULL);
+    cfg.contact_model = model;
+    cfg.restitution = e;
+    cfg.contact_time = tc;
+    cfg.young_modulus = 1e8;
+    cfg.poisson_ratio = 0.3;
+    cfg.integrator = integ;
+    cfg.cvode_method = meth;
+    cfg.rtol = 1e-10;
+    cfg.atol = 1e-14;
+    rigid_t *r = NULL;
+    if (rigid_create(&cfg, NULL, &r) != STATUS_OK) {
+        return out;
+    }
+    double prev = -1.0, tprev = rigid_time(r), t_in = -1, t_out = -1;
+    for (int n = 0; n < 1000000 && t_out < 0; n++) {
+        if (rigid_step(r, h) != STATUS_OK) {
+            rigid_free(r);
+            return out;
+        }
+        double x0[3], x1[3];
+        rigid_get_sphere(r, 0, x0, NULL, NULL);
+        rigid_get_sphere(r, 1, x1, NULL, NULL);
+        double delta = 2 * rr - (x1[0] - x0[0]), t = rigid_time(r);
+        if (prev <= 0 && delta > 0) {
+            t_in = tprev + (t - tprev) * (-prev) / (delta - prev);
+        }
+        if (t_in >= 0 && prev > 0 && delta <= 0) {
+            t_out = tprev + (t - tprev) * prev / (prev - delta);
+        }
+        prev = delta;
+        tprev = t;
+    }
+    CU_ASSERT_EQUAL(rigid_step(r, h), STATUS_OK); /* one more: no force left */
+    double v0s[3], v1s[3];
+    rigid_get_sphere(r, 0, NULL, v0s, NULL);
+    rigid_get_sphere(r, 1, NULL, v1s, NULL);
+    out.tc = t_out - t_in;
+    out.e = (v1s[0] - v0s[0]) / (2 * v0);
+    out.ok = t_out > 0;
+    rigid_free(r);
+    return out;
+}
+
+static void check_spring_dashpot(rigid_integrator_t integ, rigid_cvode_method_t meth)
+{
+    double tc = 1e-4, e = 0.7;
+    collision_t c = head_on(RIGID_CONTACT_SPRING_DASHPOT, integ, meth, e, tc, tc / 200, 0.1);
+    CU_ASSERT_FATAL(c.ok);
+    CU_ASSERT(rel_err(c.tc, tc) < 0.01);
+    CU_ASSERT(rel_err(c.e, e) < 0.01);
+}
+
+static void test_head_on_verlet(void) { check_spring_dashpot(RIGID_VERLET, RIGID_ADAMS); }
+static void test_head_on_cvode(void) { check_spring_dashpot(RIGID_CVODE, RIGID_ADAMS); }
+static void test_head_on_cvode_bdf(void) { check_spring_dashpot(RIGID_CVODE, RIGID_BDF); }
+
+static void test_hertz_elastic(void)
+{
+    double rr = 1e-3, rho = 2500.0, v0 = 0.1, E = 1e8, nu = 0.3;
+    double m = rho * 4.0 / 3.0 * M_PI * rr * rr * rr, meff = m / 2, Rs = rr / 2, Es = E / (2 * (1 - nu * nu));
+    double vrel = 2 * v0;
+    double tref = 2.9432 * pow(15.0 * meff / (16.0 * Es * sqrt(Rs)), 0.4) * pow(vrel, -0.2);
+    collision_t c = head_on(RIGID_CONTACT_HERTZ, RIGID_VERLET, RIGID_ADAMS, 1.0, 0, tref / 500, v0);
+    CU_ASSERT_FATAL(c.ok);
+    CU_ASSERT(rel_err(c.tc, tref) < 0.01);
+    CU_ASSERT(rel_err(c.e, 1.0) < 0.01);
+    collision_t d = head_on(RIGID_CONTACT_HERTZ, RIGID_VERLET, RIGID_ADAMS, 0.5, 0, tref / 500, v0);
+    CU_ASSERT(d.ok && d.e > 0.3 && d.e < 0.7); /* Tsuji damping: e approximate */
+}
+
+/* A sphere dropped onto the floor wall with a contact time far below the step. */
+static status_t stiff_drop(rigid_integrator_t integ, rigid_linsol_t ls, double *z_end, double *v_end, test_log_t *tl)
+{
+    double rr = 1e-3;
+    rigid_sphere_cfg_t s = {{0, 0, rr + 1e-6}, rr, 0};
+    rigid_body_cfg_t b = {2500.0, {0, 0, 0}, {0, 0, 0}, 0};
+    rigid_config_t cfg = test_cfg(1, &s, 1, &b, 0, NULL);
+    cfg.gravity[2] = -9.81;
+    cfg.contact_model = RIGID_CONTACT_SPRING_DASHPOT;
+    cfg.restitution = 0.3;
+    cfg.contact_time = 1e-5;
+    cfg.walls[2][0] = 1;
+    cfg.box_lo[2] = 0.0;
+    cfg.box_hi[2] = 1.0;
+    cfg.integrator = integ;
+    cfg.cvode_method = RIGID_BDF;
+    cfg.linsol = ls;
+    cfg.rtol = 1e-9;
+    cfg.atol = 1e-12;
+    log_t lg = {test_log_fn, tl};
+    rigid_t *r = NULL;
+    status_t st = rigid_create(&cfg, &lg, &r);
+    if (st != STATUS_OK) {
+        return st;
+    }
+    for (int n = 0; n < 100 && st == STATUS_OK; n++) {
+        st = rigid_step(r, 1e-3); /* 100 contact times per step */
+    }
+    double x[3], v[3];
+    rigid_get_sphere(r, 0, x, v, NULL);
+    *z_end = x[2];
+    *v_end = v[2];
+    rigid_free(r);
+    return st;
+}
+
+static void test_stiff_verlet_reports(void)
+{
+    test_log_t tl = {"", 0};
+    double z, v;
+    status_t st = stiff_drop(RIGID_VERLET, RIGID_LS_DENSE, &z, &v, &tl);
+    CU_ASSERT_EQUAL(st, STATUS_ERROR);
+    CU_ASSERT(tl.nerr == 1);
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "unstable contact between sphere 0 (body 0)"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "wall"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "t="));
+    CU_ASSERT(isfinite(z) && isfinite(v));
+}
+
+static void test_stiff_cvode_bdf(void)
+{
+    for (int ls = 0; ls < 2; ls++) {
+        test_log_t tl = {"", 0};
+        double z, v;
+        status_t st = stiff_drop(RIGID_CVODE, ls == 0 ? RIGID_LS_DENSE : RIGID_LS_SPGMR, &z, &v, &tl);
+        CU_ASSERT_EQUAL(st, STATUS_OK);
+        /* at rest on the wall with the static overlap m g / k = g t_c^2/(pi^2 + ln^2 e) */
+        double le = log(0.3), deq = 9.81 * 1e-10 / (M_PI * M_PI + le * le);
+        CU_ASSERT(fabs(z - (1e-3 - deq)) < 0.01 * deq);
+        CU_ASSERT(fabs(v) < 1e-8);
+    }
+}
+
+void test_contact_register(void)
+{
+    CU_pSuite s = CU_add_suite("rigid_contact", NULL, NULL);
+    CU_add_test(s, "head-on spring-dashpot (Verlet): t_c and e within 1%", test_head_on_verlet);
+    CU_add_test(s, "head-on spring-dashpot (CVODE Adams): t_c and e within 1%", test_head_on_cvode);
+    CU_add_test(s, "head-on spring-dashpot (CVODE BDF): t_c and e within 1%", test_head_on_cvode_bdf);
+    CU_add_test(s, "head-on Hertz elastic: Johnson contact duration", test_hertz_elastic);
+    CU_add_test(s, "stiff contact: Verlet reports the instability", test_stiff_verlet_reports);
+    CU_add_test(s, "stiff contact: CVODE BDF (dense, SPGMR) completes", test_stiff_cvode_bdf);
+}
