@@ -17,7 +17,7 @@ SCENE    ?= models/channel_poiseuille.yaml
 
 COMMON_SRC  := common/status.c common/scene.c
 FLUID_SRC   := fluid/lattice.c fluid/kernel.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
-               fluid/spheres.c fluid/fluid.c
+               fluid/spheres.c fluid/state.c fluid/fluid.c
 RIGID_SRC   := rigid/rigid.c rigid/body.c rigid/forces.c rigid/contact.c rigid/integrator_verlet.c \
                rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c
 COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/output.c

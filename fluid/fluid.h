@@ -60,6 +60,13 @@ void fluid_sphere_load(const fluid_t *fl, int i, double force[3], double torque[
 /* The same, lattice units, never averaged (momentum per step). */
 void fluid_sphere_load_lattice(const fluid_t *fl, int i, double force[3], double torque[3]);
 
+/* Serialisation of the complete state (populations, flags, spheres, step)
+ * for FMI get/set/serialize FMU state: restoring a saved state into an
+ * instance created from the same scene continues bit-identically. */
+size_t fluid_state_size(const fluid_t *fl);
+status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size);
+status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size);
+
 /* Low-level access for tests and benchmarks. */
 double *fluid_populations(fluid_t *fl); /* f[cur], SoA, see grid.h */
 

@@ -441,6 +441,48 @@ static void test_shift_across_periodic_face(void)
     }
 }
 
+/* ---- state save / restore ---------------------------------------------- */
+
+static void test_state_restore_bit_identical(void)
+{
+    scene_t s = test_box(18, 14, 12, 0.7, COLLISION_TRT);
+    const double c[3] = {8.2, 6.9, 5.6};
+    scene_body_t *b = one_sphere(&s, c, 3.3, MOTION_PRESCRIBED);
+    b->velocity[0] = 0.03;
+    b->angular_velocity[2] = 0.004;
+    s.fluid.body_force[1] = 1e-6;
+    s.fluid.boundary_scheme = BOUNDARY_QUADRATIC;
+    s.fluid.refill = REFILL_EXTRAPOLATION;
+    fluid_t *a = test_fluid(&s), *r = test_fluid(&s);
+    test_run(a, 40);
+    const size_t n = fluid_state_size(a);
+    void *buf = malloc(n);
+    CU_ASSERT_FATAL(buf != NULL);
+    CU_ASSERT_EQUAL(fluid_state_save(a, buf, n), STATUS_OK);
+    test_run(a, 35);
+    CU_ASSERT_EQUAL(fluid_state_restore(r, buf, n), STATUS_OK);
+    test_run(r, 35);
+    double fa[3], ta[3], fr[3], tr[3];
+    fluid_sphere_load_lattice(a, 0, fa, ta);
+    fluid_sphere_load_lattice(r, 0, fr, tr);
+    CU_ASSERT(memcmp(fa, fr, sizeof fa) == 0 && memcmp(ta, tr, sizeof ta) == 0);
+    const int cells = 18 * 14 * 12;
+    double *ua = malloc(sizeof(double) * 4 * cells), *ur = malloc(sizeof(double) * 4 * cells);
+    fluid_moments_lattice(a, ua, ua + cells);
+    fluid_moments_lattice(r, ur, ur + cells);
+    CU_ASSERT(memcmp(ua, ur, sizeof(double) * 4 * cells) == 0);
+    /* a state of another scene is refused */
+    scene_t other = test_box(10, 10, 10, 0.7, COLLISION_TRT);
+    fluid_t *o = test_fluid(&other);
+    CU_ASSERT_EQUAL(fluid_state_restore(o, buf, n), STATUS_ERROR);
+    free(ua);
+    free(ur);
+    free(buf);
+    fluid_free(o);
+    fluid_free(a);
+    fluid_free(r);
+}
+
 void spheres_register_tests(int validate)
 {
     CU_pSuite s = CU_add_suite("spheres", NULL, NULL);
@@ -449,6 +491,7 @@ void spheres_register_tests(int validate)
     CU_add_test(s, "rotating sphere r=8: Hofmann torque within 2%", test_rotating_sphere_torque);
     CU_add_test(s, "moving sphere, bounce-back: momentum conserved", test_moving_sphere_momentum_bounce_back);
     CU_add_test(s, "shift across a periodic face: same force", test_shift_across_periodic_face);
+    CU_add_test(s, "state save/restore: bit-identical continuation", test_state_restore_bit_identical);
     if (validate) {
         CU_pSuite v = CU_add_suite("spheres-validate", NULL, NULL);
         CU_add_test(v, "periodic array r=8: Sangani-Acrivos within 0.2%", test_periodic_array_r8);

@@ -1,0 +1,121 @@
+/* state.c — serialisation of the fluid component's state (fluid.h).
+ *
+ * Layout: a header (magic, version, grid, sphere count), the step counter,
+ * the post-collision populations of every allocated cell, the cell flags,
+ * the sphere records and the list of solid cells (the map stage needs the
+ * previous solid set to find uncovered cells). Links, ghost values and the
+ * second population array are rebuilt or overwritten by the next step
+ * before they are read, so they are not saved. Same build, same scene. */
+#include "fluid_internal.h"
+
+#include "lattice.h"
+
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define STATE_MAGIC 0x464c5549444c4231ull /* "FLUIDLB1" */
+
+typedef struct {
+    uint64_t magic;
+    int32_t n[3];
+    int32_t nspheres;
+    int64_t step;
+    uint64_t ncells;
+    uint64_t nsolid;
+    int64_t covered, uncovered;
+    int32_t first;
+    int32_t pad;
+} state_header_t;
+
+size_t fluid_state_size(const fluid_t *fl)
+{
+    return sizeof(state_header_t) + (size_t)LB_Q * fl->g.ncells * sizeof(double) + fl->g.ncells +
+           (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t);
+}
+
+status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
+{
+    if (size < fluid_state_size(fl)) {
+        return log_msg(&fl->log, STATUS_ERROR, "fluid", "state buffer of %zu bytes is smaller than the %zu needed",
+                       size, fluid_state_size(fl));
+    }
+    state_header_t h;
+    memset(&h, 0, sizeof h);
+    h.magic = STATE_MAGIC;
+    for (int a = 0; a < 3; a++) {
+        h.n[a] = fl->g.n[a];
+    }
+    h.nspheres = fl->spheres.n;
+    h.step = fl->step;
+    h.ncells = fl->g.ncells;
+    h.nsolid = fl->spheres.nsolid;
+    h.covered = fl->spheres.covered_total;
+    h.uncovered = fl->spheres.uncovered_total;
+    h.first = fl->spheres.first;
+    unsigned char *p = buf;
+    memcpy(p, &h, sizeof h);
+    p += sizeof h;
+    const size_t fbytes = (size_t)LB_Q * fl->g.ncells * sizeof(double);
+    memcpy(p, fl->f[fl->cur], fbytes);
+    p += fbytes;
+    memcpy(p, fl->flags, fl->g.ncells);
+    p += fl->g.ncells;
+    if (fl->spheres.n > 0) {
+        memcpy(p, fl->spheres.s, (size_t)fl->spheres.n * sizeof(sphere_t));
+        p += (size_t)fl->spheres.n * sizeof(sphere_t);
+    }
+    if (fl->spheres.nsolid > 0) {
+        memcpy(p, fl->spheres.solid, fl->spheres.nsolid * sizeof(size_t));
+    }
+    return STATUS_OK;
+}
+
+status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
+{
+    state_header_t h;
+    if (size < sizeof h) {
+        return log_msg(&fl->log, STATUS_ERROR, "fluid", "state of %zu bytes is too short", size);
+    }
+    memcpy(&h, buf, sizeof h);
+    if (h.magic != STATE_MAGIC || h.n[0] != fl->g.n[0] || h.n[1] != fl->g.n[1] || h.n[2] != fl->g.n[2] ||
+        h.nspheres != fl->spheres.n || h.ncells != fl->g.ncells) {
+        return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                       "the state does not belong to this scene (grid %d x %d x %d with %d spheres expected)",
+                       fl->g.n[0], fl->g.n[1], fl->g.n[2], fl->spheres.n);
+    }
+    const size_t fbytes = (size_t)LB_Q * fl->g.ncells * sizeof(double);
+    const size_t need = sizeof h + fbytes + fl->g.ncells + (size_t)h.nspheres * sizeof(sphere_t) +
+                        (size_t)h.nsolid * sizeof(size_t);
+    if (size < need) {
+        return log_msg(&fl->log, STATUS_ERROR, "fluid", "state of %zu bytes is shorter than its %zu bytes", size,
+                       need);
+    }
+    if (h.nsolid > fl->spheres.cap_solid) {
+        size_t *ns = realloc(fl->spheres.solid, h.nsolid * sizeof(size_t));
+        if (ns == NULL) {
+            return log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory restoring the state");
+        }
+        fl->spheres.solid = ns;
+        fl->spheres.cap_solid = h.nsolid;
+    }
+    const unsigned char *p = buf;
+    p += sizeof h;
+    memcpy(fl->f[fl->cur], p, fbytes);
+    p += fbytes;
+    memcpy(fl->flags, p, fl->g.ncells);
+    p += fl->g.ncells;
+    if (h.nspheres > 0) {
+        memcpy(fl->spheres.s, p, (size_t)h.nspheres * sizeof(sphere_t));
+        p += (size_t)h.nspheres * sizeof(sphere_t);
+    }
+    if (h.nsolid > 0) {
+        memcpy(fl->spheres.solid, p, h.nsolid * sizeof(size_t));
+    }
+    fl->spheres.nsolid = h.nsolid;
+    fl->spheres.covered_total = h.covered;
+    fl->spheres.uncovered_total = h.uncovered;
+    fl->spheres.first = h.first;
+    fl->step = h.step;
+    return STATUS_OK;
+}
