@@ -20,7 +20,8 @@ FLUID_SRC   := fluid/lattice.c fluid/kernel.c fluid/walls.c fluid/units.c fluid/
                fluid/spheres.c fluid/state.c fluid/fluid.c
 RIGID_SRC   := rigid/rigid.c rigid/body.c rigid/forces.c rigid/contact.c rigid/integrator_verlet.c \
                rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c
-COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/output.c
+COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/output.c coupler/export.c \
+               common/fmi_vars.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c \
                tests/fluid/test_flows.c tests/fluid/test_spheres.c tests/common/test_scene.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
@@ -31,7 +32,7 @@ obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
 
 .PHONY: all run test validate bench report fmus clean deps
-all: $(BUILD)/coupler $(BUILD)/run_tests
+all: $(BUILD)/coupler $(BUILD)/run_tests $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so
 
 deps:
 	@tools/install-deps.sh
@@ -71,7 +72,38 @@ report: deps
 	@$(MAKE) --no-print-directory all $(BUILD)/rigid_report
 	$(BUILD)/rigid_report
 
+# FMUs: the same sources built again with hidden visibility, so that a
+# shared library exports the fmi2* entry points only; common/fmi_adapter.c
+# is compiled once per model (-DFMI_MODEL). HDF5 is not linked.
+FMU_FLUID_SRC := common/status.c common/scene.c common/fmi_vars.c $(FLUID_SRC) fluid/fluid_fmi.c
+FMU_RIGID_SRC := common/status.c common/scene.c common/fmi_vars.c $(RIGID_SRC) rigid/rigid_fmi.c
+FMU_CFLAGS    := $(CFLAGS) -fvisibility=hidden
+FMU_LDFLAGS   := -shared -Wl,-z,defs -Wl,-z,nodelete
+FMU_FLUID_LIBS := $(shell pkg-config --libs libcyaml yaml-0.1 2>/dev/null) -lm
+FMU_RIGID_LIBS := $(shell pkg-config --libs libcyaml yaml-0.1 2>/dev/null) -lsundials_cvode -lsundials_nvecserial -lm
+fmu_obj = $(patsubst %.c,$(BUILD)/fmu/obj/%.o,$(1))
+
+$(call obj,coupler/export.c): CFLAGS += $(shell pkg-config --cflags libxml-2.0 libzip 2>/dev/null)
+$(BUILD)/coupler: LDLIBS += $(shell pkg-config --libs libxml-2.0 libzip 2>/dev/null)
+
+$(BUILD)/fmu/obj/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(FMU_CFLAGS) -MMD -MP -c $< -o $@
+
+$(BUILD)/fmu/obj/fmi_adapter_fluid.o $(BUILD)/fmu/obj/fmi_adapter_rigid.o: $(BUILD)/fmu/obj/fmi_adapter_%.o: common/fmi_adapter.c
+	@mkdir -p $(dir $@)
+	$(CC) $(FMU_CFLAGS) -DFMI_MODEL=$*_fmi_model -MMD -MP -c $< -o $@
+
+$(BUILD)/fmu/fluid.so: $(call fmu_obj,$(FMU_FLUID_SRC)) $(BUILD)/fmu/obj/fmi_adapter_fluid.o
+	$(CC) $(FMU_CFLAGS) $(FMU_LDFLAGS) $^ -o $@ $(FMU_FLUID_LIBS)
+
+$(BUILD)/fmu/rigid.so: $(call fmu_obj,$(FMU_RIGID_SRC)) $(BUILD)/fmu/obj/fmi_adapter_rigid.o
+	$(CC) $(FMU_CFLAGS) $(FMU_LDFLAGS) $^ -o $@ $(FMU_RIGID_LIBS)
+
+fmus: $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so
+
 clean:
 	rm -rf $(BUILD)
 
 -include $(shell find $(BUILD)/obj -name '*.d' 2>/dev/null)
+-include $(shell find $(BUILD)/fmu/obj -name '*.d' 2>/dev/null)

@@ -68,6 +68,7 @@ static const cyaml_strval_t BOUNDARY_NAMES[] = {
     {"yu", BOUNDARY_YU},
     {"cli", BOUNDARY_CLI},
     {"quadratic", BOUNDARY_QUADRATIC},
+    {"multireflection", BOUNDARY_MULTIREFLECTION},
 };
 static const cyaml_strval_t REFILL_NAMES[] = {{"equilibrium", REFILL_EQUILIBRIUM},
                                               {"extrapolation", REFILL_EXTRAPOLATION}};

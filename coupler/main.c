@@ -3,12 +3,14 @@
  *   coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]
  *   coupler check SCENE.yaml [--set KEY=VALUE]...
  *   coupler bench [--size N]... [--json]
+ *   coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...
  *
  * Only this file decides exit codes: 0 success, 1 a failed run or invalid
  * scene, 2 a usage error. Messages go to stderr through the log sink. */
 #include "../common/scene.h"
 #include "../fluid/units.h"
 #include "bench.h"
+#include "export.h"
 #include "run.h"
 
 #include <errno.h>
@@ -16,6 +18,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #define MAX_SETS 256
 #define MAX_SIZES 16
@@ -28,7 +31,8 @@ static int usage(const char *msg)
     fprintf(stderr, "usage:\n"
                     "  coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]\n"
                     "  coupler check SCENE.yaml [--set KEY=VALUE]...\n"
-                    "  coupler bench [--size N]... [--json]\n");
+                    "  coupler bench [--size N]... [--json]\n"
+                    "  coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...\n");
     return 2;
 }
 
@@ -88,6 +92,22 @@ static int cmd_check(const scene_t *s, const log_t *log)
     return 0;
 }
 
+/* The FMU libraries live in build/fmu beside the coupler executable. */
+static void fmu_lib_dir(char *buf, size_t n)
+{
+    ssize_t len = readlink("/proc/self/exe", buf, n - 1);
+    if (len <= 0 || (size_t)len >= n - 1) {
+        snprintf(buf, n, "build");
+    } else {
+        buf[len] = '\0';
+        char *slash = strrchr(buf, '/');
+        if (slash != NULL) {
+            *slash = '\0';
+        }
+    }
+    strncat(buf, "/fmu", n - strlen(buf) - 1);
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -120,11 +140,11 @@ int main(int argc, char **argv)
         }
         return bench_main(sizes, nsizes, json);
     }
-    if (strcmp(cmd, "run") != 0 && strcmp(cmd, "check") != 0) {
+    if (strcmp(cmd, "run") != 0 && strcmp(cmd, "check") != 0 && strcmp(cmd, "export") != 0) {
         fprintf(stderr, "coupler: unknown command '%s'\n", cmd);
         return usage(NULL);
     }
-    const char *scene_path = NULL, *output = NULL;
+    const char *scene_path = NULL, *output = NULL, *export_dir = NULL;
     const char *sets[MAX_SETS];
     int nsets = 0, quiet = 0;
     long steps = 0;
@@ -142,6 +162,8 @@ int main(int argc, char **argv)
             if (!parse_long("--steps", argv[++i], 0, LONG_MAX / 2, &steps)) {
                 return 2;
             }
+        } else if (strcmp(cmd, "export") == 0 && strcmp(a, "-d") == 0 && has_value) {
+            export_dir = argv[++i];
         } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--quiet") == 0) {
             quiet = 1;
         } else if (a[0] == '-' || scene_path != NULL) {
@@ -153,6 +175,9 @@ int main(int argc, char **argv)
     }
     if (scene_path == NULL) {
         return usage("a scene file is required");
+    }
+    if (strcmp(cmd, "export") == 0 && export_dir == NULL) {
+        return usage("export needs -d DIR, the folder for fluid.fmu and rigid.fmu");
     }
     for (int k = 0; k < nsets; k++) {
         if (strchr(sets[k], '=') == NULL) {
@@ -167,6 +192,10 @@ int main(int argc, char **argv)
     int rc;
     if (strcmp(cmd, "check") == 0) {
         rc = cmd_check(scene, &log);
+    } else if (strcmp(cmd, "export") == 0) {
+        char lib_dir[4096];
+        fmu_lib_dir(lib_dir, sizeof lib_dir);
+        rc = export_fmus(scene, export_dir, lib_dir, &log);
     } else {
         char buf[4096];
         if (output == NULL) {

@@ -1,10 +1,31 @@
 /* boundary.c — coefficients of the curved-wall schemes (boundary.h). */
 #include "boundary.h"
 
-boundary_scheme_t boundary_coefficients(boundary_scheme_t scheme, double d, int have_ff, int have_fff, double a[3],
-                                        double b[2])
+boundary_scheme_t boundary_coefficients(boundary_scheme_t scheme, double d, int have_ff, int have_fff,
+                                        double omega_minus, double a[3], double b[2], double *corr)
 {
     a[0] = a[1] = a[2] = b[0] = b[1] = 0.0;
+    *corr = 0.0;
+    if (scheme == BOUNDARY_MULTIREFLECTION) {
+        if (have_ff && have_fff) {
+            const double c = (1.0 + d) * (1.0 + d);
+            const double k0 = (1.0 - 2.0 * d - 2.0 * d * d) / c, km1 = d * d / c;
+            a[0] = 1.0;
+            a[1] = k0;
+            a[2] = km1;
+            b[0] = -k0;
+            b[1] = -km1;
+            *corr = -(4.0 / c) * (1.0 - 0.5 * omega_minus);
+            return BOUNDARY_MULTIREFLECTION;
+        }
+        if (have_ff) {
+            a[0] = b[0] = d / (1.0 + d);
+            a[1] = (1.0 - d) / (1.0 + d);
+            *corr = -(2.0 / (1.0 + d)) * 0.5 * omega_minus;
+            return BOUNDARY_MULTIREFLECTION;
+        }
+        scheme = BOUNDARY_BOUNCE_BACK;
+    }
     if (scheme == BOUNDARY_QUADRATIC) {
         if (d < 0.5 && have_ff && have_fff) {
             a[0] = d * (1.0 + 2.0 * d);

@@ -20,17 +20,28 @@
  *                             a2 = -delta(1-2 delta)
  *                delta >= 1/2: a0 = 1/(delta(2 delta+1)), b0 = (2 delta-1)/delta,
  *                             b1 = -(2 delta-1)/(2 delta+1)
+ *   multireflection  MR1 of Ginzburg, Verhaeghe & d'Humieres (2008), Table 3
+ *                with c = (1+delta)^2: a0 = 1, a1 = k0, a2 = k_1, b0 = -k0, b1 = -k_1,
+ *                k0 = (1 - 2 delta - 2 delta^2)/c, k_1 = delta^2/c, plus the
+ *                post-collision correction of their Eq. 5.7,
+ *                -alpha (1 - w-/2) n_q^-, alpha = 4/c, n_q^- the antisymmetric
+ *                non-equilibrium part of the pre-collision populations at x_f;
+ *                it makes the scheme exact for parabolic profiles with TRT.
+ *                With only x_f - c_q fluid: MYLI (Yu's coefficients plus the
+ *                correction -alpha w-/2 n_q^-, alpha = 2/(1+delta), Eq. 5.5).
  * Where a scheme needs a fluid node that is missing (x_f - c_q or
  * x_f - 2 c_q solid or outside), the next simpler scheme is used:
- * quadratic -> cli -> bounce_back, yu -> bounce_back. */
+ * quadratic -> cli -> bounce_back, multireflection -> MYLI -> bounce_back,
+ * yu -> bounce_back. */
 #ifndef FLUID_BOUNDARY_H
 #define FLUID_BOUNDARY_H
 
 #include "../common/scene.h"
 
-/* Fills a[3], b[2]; have_ff / have_fff: x_f - c_q / x_f - 2 c_q are fluid.
- * Returns the scheme actually used. */
+/* Fills a[3], b[2] and *corr, the factor of n_q^- (pre-collision) to add;
+ * have_ff / have_fff: x_f - c_q / x_f - 2 c_q are fluid; omega_minus is the
+ * odd relaxation rate. Returns the scheme actually used. */
 boundary_scheme_t boundary_coefficients(boundary_scheme_t scheme, double delta, int have_ff, int have_fff,
-                                        double a[3], double b[2]);
+                                        double omega_minus, double a[3], double b[2], double *corr);
 
 #endif

@@ -126,7 +126,7 @@ status_t fluid_step(fluid_t *fl)
             return st;
         }
         walls_fill(&fl->walls, &fl->g, src);
-        spheres_fill(&fl->spheres, &fl->g, src);
+        spheres_fill(&fl->spheres, &fl->g, src, dst);
     } else {
         walls_fill(&fl->walls, &fl->g, src);
     }

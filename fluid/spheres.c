@@ -119,6 +119,10 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     sp->force = s->fluid.force_method;
     sp->averaging = s->fluid.force_averaging;
     sp->first = 1;
+    sp->omega_minus = u->omega_minus;
+    for (int a = 0; a < 3; a++) {
+        sp->body_force[a] = u->force_lat[a];
+    }
     for (int a = 0; a < 3; a++) {
         sp->periodic[a] = s->domain.faces[2 * a].type == FACE_PERIODIC;
     }
@@ -258,6 +262,28 @@ static void book(spheres_t *sp, const grid_t *g, int k, const int X[3], const do
     }
 }
 
+/* With the Galilean-invariant force (Wen et al. 2014) a covered or uncovered
+ * cell books its momentum relative to the solid at the cell, rho (u - u_s):
+ * the part rho u_s only moves mass between fluid and solid and, booked as an
+ * impulse, is the dominant source of force fluctuations (+rho v on every
+ * covered cell, -rho v on every uncovered one). With plain momentum exchange
+ * the full momentum is booked (Aidun, Lu & Ding 1998), which conserves the
+ * momentum of fluid plus spheres exactly. */
+static void galilean_shift(const spheres_t *sp, const grid_t *g, int k, const int X[3], double rho, double dp[3])
+{
+    if (sp->force != FORCE_GALILEAN) {
+        return;
+    }
+    const sphere_t *p = &sp->s[k];
+    const double x[3] = {X[0], X[1], X[2]};
+    double d[3], wr[3];
+    min_image(g, sp->periodic, x, p->c, d);
+    cross(p->w, d, wr);
+    for (int a = 0; a < 3; a++) {
+        dp[a] -= rho * (p->v[a] + wr[a]);
+    }
+}
+
 /* The sphere whose surface is nearest to point x. */
 static int nearest_sphere(const spheres_t *sp, const grid_t *g, const double x[3], double d_out[3])
 {
@@ -327,14 +353,17 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, 
         }
         sp->solid[sp->nsolid++] = i;
         if (!was_solid && !sp->first) {
-            double dp[3] = {0.0, 0.0, 0.0};
+            double dp[3] = {0.0, 0.0, 0.0}, rho = 0.0;
             for (int q = 0; q < LB_Q; q++) {
+                const double v = f[(size_t)q * N + i];
+                rho += v;
                 for (int a = 0; a < 3; a++) {
-                    dp[a] += lb_c[q][a] * f[(size_t)q * N + i];
+                    dp[a] += lb_c[q][a] * v;
                 }
             }
             int X[3];
             cell_coords(g, i, X);
+            galilean_shift(sp, g, marks[j].sphere, X, rho, dp);
             book(sp, g, marks[j].sphere, X, dp);
             sp->covered_total++;
         }
@@ -360,6 +389,11 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, 
             us[a] = p->v[a] + wr[a];
         }
         refill_cell(sp->refill, g, flags, sp->periodic, f, X, nrm, us, mom);
+        double rho = 0.0;
+        for (int q = 0; q < LB_Q; q++) {
+            rho += f[(size_t)q * N + i];
+        }
+        galilean_shift(sp, g, k, X, rho, mom);
         for (int a = 0; a < 3; a++) {
             mom[a] = -mom[a];
         }
@@ -463,7 +497,9 @@ static status_t build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, cons
                         l->dst = (size_t)lb_opposite(q) * N + grid_index(g, B[0], B[1], B[2]);
                         const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
                         const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
-                        boundary_coefficients(sp->scheme, delta, have_ff, have_fff, l->a, l->b);
+                        boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, l->a, l->b,
+                                              &l->corr);
+                        l->pre_q = (size_t)q * N + grid_index(g, Y[0] - lb_c[q][0], Y[1] - lb_c[q][1], Y[2] - lb_c[q][2]);
                         double d[3];
                         min_image(g, sp->periodic, xf, sp->s[hit].c, d);
                         for (int a = 0; a < 3; a++) {
@@ -484,7 +520,7 @@ static status_t build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, cons
     return STATUS_OK;
 }
 
-void spheres_fill(spheres_t *sp, const grid_t *g, double *f)
+void spheres_fill(spheres_t *sp, const grid_t *g, double *f, const double *prev)
 {
     const size_t N = g->ncells;
     const int galilean = sp->force == FORCE_GALILEAN;
@@ -493,9 +529,13 @@ void spheres_fill(spheres_t *sp, const grid_t *g, double *f)
         sphere_t *p = &sp->s[l->sphere];
         const int q = l->q, o = lb_opposite(q);
         const double *fq = f + (size_t)q * N, *fo = f + (size_t)o * N;
-        double rho = 0.0;
+        double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
         for (int k = 0; k < LB_Q; k++) {
-            rho += f[(size_t)k * N + l->xf];
+            const double v = f[(size_t)k * N + l->xf];
+            rho += v;
+            for (int a = 0; a < 3; a++) {
+                j[a] += lb_c[k][a] * v;
+            }
         }
         double wr[3], uw[3];
         cross(p->w, l->rw, wr);
@@ -514,6 +554,16 @@ void spheres_fill(spheres_t *sp, const grid_t *g, double *f)
         }
         if (l->b[1] != 0.0) {
             f_new += l->b[1] * fo[l->xff];
+        }
+        if (l->corr != 0.0) {
+            /* antisymmetric non-equilibrium of the pre-collision populations at x_f:
+             * f_q came from pre_q, f_qbar from the solid side, the very slot of this link */
+            double cu0 = 0.0;
+            for (int a = 0; a < 3; a++) {
+                cu0 += lb_c[q][a] * (j[a] - 0.5 * sp->body_force[a]);
+            }
+            const double nm = 0.5 * (prev[l->pre_q] - prev[l->dst]) - 3.0 * lb_w[q] * cu0;
+            f_new += l->corr * nm;
         }
         f[l->dst] = f_new;
         /* Eq. 7 (Ladd), populations centred on the rest weight so that hidden

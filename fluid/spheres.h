@@ -41,6 +41,8 @@ typedef struct {
     size_t dst;           /* slot written: qbar * ncells + (x_f + c_q), unwrapped */
     size_t xf, xff, xfff; /* interior cells along -c_q (periodic wrap applied) */
     double a[3], b[2];    /* f_new = sum a_k f~_q(x_f - k c_q) + sum b_k f~_qbar(x_f - k c_q) + moving term */
+    double corr;          /* + corr n_q^-(x_f), pre-collision (multireflection) */
+    size_t pre_q;         /* slot of the previous step's array that x_f pulled f_q from */
     double rw[3];         /* wall point minus sphere centre */
     int q, sphere;
     double delta;
@@ -64,6 +66,8 @@ typedef struct {
     force_method_t force;
     int averaging;
     int first;
+    double omega_minus;
+    double body_force[3]; /* lattice: the equilibrium velocity is (j~ - F/2)/rho */
 } spheres_t;
 
 status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const grid_t *g, uint8_t *flags,
@@ -72,8 +76,11 @@ void spheres_free(spheres_t *sp);
 
 /* Map stage on post-collision populations f: flags, covering, refill, links. */
 status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, const log_t *log);
-/* Fill stage: boundary populations and the momentum exchanged per sphere. */
-void spheres_fill(spheres_t *sp, const grid_t *g, double *f);
+/* Fill stage: boundary populations and the momentum exchanged per sphere.
+ * prev is the other population array: the previous step's post-collision
+ * values with its boundary values, from which x_f pulled its pre-collision
+ * populations (needed by multireflection only). */
+void spheres_fill(spheres_t *sp, const grid_t *g, double *f, const double *prev);
 /* Moves prescribed and fixed spheres by one step (dt = 1). */
 void spheres_advance_prescribed(spheres_t *sp, const grid_t *g, long step);
 

@@ -1,11 +1,11 @@
 /* state.c — serialisation of the fluid component's state (fluid.h).
  *
  * Layout: a header (magic, version, grid, sphere count), the step counter,
- * the post-collision populations of every allocated cell, the cell flags,
+ * both population arrays of every allocated cell (the current post-collision
+ * values, and the previous ones that multireflection reads), the cell flags,
  * the sphere records and the list of solid cells (the map stage needs the
- * previous solid set to find uncovered cells). Links, ghost values and the
- * second population array are rebuilt or overwritten by the next step
- * before they are read, so they are not saved. Same build, same scene. */
+ * previous solid set to find uncovered cells). Links are rebuilt by the
+ * next step, so they are not saved. Same build, same scene. */
 #include "fluid_internal.h"
 
 #include "lattice.h"
@@ -30,7 +30,7 @@ typedef struct {
 
 size_t fluid_state_size(const fluid_t *fl)
 {
-    return sizeof(state_header_t) + (size_t)LB_Q * fl->g.ncells * sizeof(double) + fl->g.ncells +
+    return sizeof(state_header_t) + 2 * (size_t)LB_Q * fl->g.ncells * sizeof(double) + fl->g.ncells +
            (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t);
 }
 
@@ -59,6 +59,8 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
     const size_t fbytes = (size_t)LB_Q * fl->g.ncells * sizeof(double);
     memcpy(p, fl->f[fl->cur], fbytes);
     p += fbytes;
+    memcpy(p, fl->f[1 - fl->cur], fbytes);
+    p += fbytes;
     memcpy(p, fl->flags, fl->g.ncells);
     p += fl->g.ncells;
     if (fl->spheres.n > 0) {
@@ -85,7 +87,7 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
                        fl->g.n[0], fl->g.n[1], fl->g.n[2], fl->spheres.n);
     }
     const size_t fbytes = (size_t)LB_Q * fl->g.ncells * sizeof(double);
-    const size_t need = sizeof h + fbytes + fl->g.ncells + (size_t)h.nspheres * sizeof(sphere_t) +
+    const size_t need = sizeof h + 2 * fbytes + fl->g.ncells + (size_t)h.nspheres * sizeof(sphere_t) +
                         (size_t)h.nsolid * sizeof(size_t);
     if (size < need) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "state of %zu bytes is shorter than its %zu bytes", size,
@@ -102,6 +104,8 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     const unsigned char *p = buf;
     p += sizeof h;
     memcpy(fl->f[fl->cur], p, fbytes);
+    p += fbytes;
+    memcpy(fl->f[1 - fl->cur], p, fbytes);
     p += fbytes;
     memcpy(fl->flags, p, fl->g.ncells);
     p += fl->g.ncells;

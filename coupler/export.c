@@ -1,0 +1,370 @@
+/* export.c — `coupler export SCENE.yaml -d DIR`: the scene's FMUs.
+ *
+ * For each model (fluid, rigid) the variable list comes from the same
+ * fmi_model_t table the shared library uses (common/fmi_adapter.h), so the
+ * modelDescription.xml written here (libxml2) and the library agree by
+ * construction. An FMU is a zip archive (libzip) with
+ *   modelDescription.xml          FMI 2.0 Co-Simulation, generated per scene
+ *   binaries/linux64/<id>.so      build/fmu/<id>.so
+ *   resources/scene.yaml          the scene text after --set overrides
+ * The GUID is a hash of that scene text (fmi_guid), checked by
+ * fmi2Instantiate. A scene without free bodies gets no rigid.fmu.
+ *
+ * Order: build every description and check DIR and the libraries first;
+ * only then write, so a failure leaves nothing behind (libzip writes to a
+ * temporary file and renames it on zip_close). */
+#include "export.h"
+
+#include "../common/fmi_adapter.h"
+
+#include <errno.h>
+#include <libxml/tree.h>
+#include <libxml/xmlstring.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zip.h>
+
+#define CAT "export"
+
+typedef struct {
+    const fmi_model_t *model;
+    fmi_vars_t vars;
+    xmlChar *xml; /* modelDescription.xml */
+    int xml_len;
+    char lib[4096]; /* path of the shared library */
+    char out[4096]; /* path of the .fmu */
+} fmu_job_t;
+
+static const char *fmt_num(double x, char *buf, size_t n)
+{
+    snprintf(buf, n, "%.17g", x);
+    return buf;
+}
+
+/* Adds an attribute; 0 when libxml2 runs out of memory. */
+static int attr(xmlNodePtr node, const char *name, const char *value)
+{
+    return xmlNewProp(node, BAD_CAST name, BAD_CAST value) != NULL;
+}
+
+static int attr_num(xmlNodePtr node, const char *name, double x)
+{
+    char buf[40];
+    return attr(node, name, fmt_num(x, buf, sizeof buf));
+}
+
+static xmlNodePtr child(xmlNodePtr parent, const char *name)
+{
+    return xmlNewChild(parent, NULL, BAD_CAST name, NULL);
+}
+
+static const char *scene_name(const scene_t *s, char *buf, size_t n)
+{
+    const char *base = strrchr(s->path, '/') != NULL ? strrchr(s->path, '/') + 1 : s->path;
+    snprintf(buf, n, "%s", base);
+    char *dot = strrchr(buf, '.');
+    if (dot != NULL && dot != buf) {
+        *dot = '\0';
+    }
+    return buf;
+}
+
+static int add_units(xmlNodePtr root, const fmi_vars_t *vs)
+{
+    xmlNodePtr defs = child(root, "UnitDefinitions");
+    if (defs == NULL) {
+        return 0;
+    }
+    for (int u = 0; u < fmi_nunits; u++) {
+        int used = 0;
+        for (int j = 0; j < vs->n && !used; j++) {
+            used = vs->v[j].unit != NULL && strcmp(vs->v[j].unit, fmi_units[u].name) == 0;
+        }
+        if (!used) {
+            continue;
+        }
+        xmlNodePtr unit = child(defs, "Unit"), base = unit != NULL ? child(unit, "BaseUnit") : NULL;
+        if (base == NULL || !attr(unit, "name", fmi_units[u].name)) {
+            return 0;
+        }
+        const struct {
+            const char *name;
+            int e;
+        } ex[] = {{"kg", fmi_units[u].kg}, {"m", fmi_units[u].m}, {"s", fmi_units[u].s}, {"rad", fmi_units[u].rad}};
+        for (size_t k = 0; k < sizeof ex / sizeof ex[0]; k++) {
+            if (ex[k].e != 0 && !attr_num(base, ex[k].name, ex[k].e)) {
+                return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+static int add_variable(xmlNodePtr list, const fmi_var_t *v, int vr)
+{
+    xmlNodePtr sv = child(list, "ScalarVariable");
+    if (sv == NULL || !attr(sv, "name", v->name) || !attr_num(sv, "valueReference", vr) ||
+        (v->description[0] != '\0' && !attr(sv, "description", v->description))) {
+        return 0;
+    }
+    const char *causality = v->causality == FMI_PARAMETER ? "parameter"
+                            : v->causality == FMI_INPUT   ? "input"
+                                                          : "output";
+    const char *variability = v->causality == FMI_PARAMETER ? "fixed"
+                              : v->type == FMI_REAL         ? "continuous"
+                                                            : "discrete";
+    if (!attr(sv, "causality", causality) || !attr(sv, "variability", variability)) {
+        return 0;
+    }
+    if ((v->causality == FMI_PARAMETER && !attr(sv, "initial", "exact")) ||
+        (v->causality == FMI_OUTPUT && !attr(sv, "initial", "calculated"))) {
+        return 0;
+    }
+    xmlNodePtr t = child(sv, v->type == FMI_REAL ? "Real" : v->type == FMI_INTEGER ? "Integer" : "Boolean");
+    if (t == NULL) {
+        return 0;
+    }
+    if (v->causality != FMI_OUTPUT) {
+        if (v->type == FMI_BOOLEAN ? !attr(t, "start", v->start != 0.0 ? "true" : "false")
+                                   : !attr_num(t, "start", v->start)) {
+            return 0;
+        }
+    }
+    if (v->type == FMI_REAL && v->unit != NULL && !attr(t, "unit", v->unit)) {
+        return 0;
+    }
+    if (v->causality == FMI_PARAMETER && v->type != FMI_BOOLEAN) {
+        if ((isfinite(v->min) && !attr_num(t, "min", v->min)) || (isfinite(v->max) && !attr_num(t, "max", v->max))) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* modelDescription.xml for one model; 0 when libxml2 runs out of memory. */
+static int build_description(const scene_t *s, fmu_job_t *job)
+{
+    const fmi_model_t *m = job->model;
+    const fmi_vars_t *vs = &job->vars;
+    char guid[39], name[300], buf[600];
+    fmi_guid(m->identifier, s->text, strlen(s->text), guid);
+    scene_name(s, name, sizeof name);
+    int ok = 0;
+    xmlDocPtr doc = xmlNewDoc(BAD_CAST "1.0");
+    xmlNodePtr root = doc != NULL ? xmlNewNode(NULL, BAD_CAST "fmiModelDescription") : NULL;
+    if (root == NULL) {
+        goto done;
+    }
+    xmlDocSetRootElement(doc, root);
+    snprintf(buf, sizeof buf, "%s_%s", name, m->identifier);
+    if (!attr(root, "fmiVersion", "2.0") || !attr(root, "modelName", buf) || !attr(root, "guid", guid) ||
+        !attr(root, "description", m->description) || !attr(root, "generationTool", "coupler export") ||
+        !attr(root, "variableNamingConvention", "structured") || !attr(root, "numberOfEventIndicators", "0")) {
+        goto done;
+    }
+    xmlNodePtr cs = child(root, "CoSimulation");
+    if (cs == NULL || !attr(cs, "modelIdentifier", m->identifier) ||
+        !attr(cs, "canHandleVariableCommunicationStepSize", m->can_variable_step ? "true" : "false") ||
+        !attr(cs, "canInterpolateInputs", "false") || !attr(cs, "maxOutputDerivativeOrder", "0") ||
+        !attr(cs, "canRunAsynchronuously", "false") || !attr(cs, "canBeInstantiatedOnlyOncePerProcess", "false") ||
+        !attr(cs, "canNotUseMemoryManagementFunctions", "true") || !attr(cs, "canGetAndSetFMUstate", "true") ||
+        !attr(cs, "canSerializeFMUstate", "true") || !attr(cs, "providesDirectionalDerivative", "false")) {
+        goto done;
+    }
+    if (!add_units(root, vs)) {
+        goto done;
+    }
+    xmlNodePtr cats = child(root, "LogCategories");
+    if (cats == NULL) {
+        goto done;
+    }
+    for (int k = 0; k < FMI_NCATS; k++) {
+        xmlNodePtr c = child(cats, "Category");
+        if (c == NULL || !attr(c, "name", fmi_log_categories[k][0]) ||
+            !attr(c, "description", fmi_log_categories[k][1])) {
+            goto done;
+        }
+    }
+    /* one LBM time step is the natural communication step of both FMUs */
+    xmlNodePtr ex = child(root, "DefaultExperiment");
+    if (ex == NULL || !attr(ex, "startTime", "0") || !attr_num(ex, "stopTime", s->run.end_time) ||
+        !attr_num(ex, "stepSize", s->fluid.dt)) {
+        goto done;
+    }
+    xmlNodePtr list = child(root, "ModelVariables");
+    if (list == NULL) {
+        goto done;
+    }
+    for (int j = 0; j < vs->n; j++) {
+        if (!add_variable(list, &vs->v[j], j)) {
+            goto done;
+        }
+    }
+    xmlNodePtr ms = child(root, "ModelStructure");
+    xmlNodePtr outs = ms != NULL ? child(ms, "Outputs") : NULL;
+    xmlNodePtr init = ms != NULL ? child(ms, "InitialUnknowns") : NULL;
+    if (outs == NULL || init == NULL) {
+        goto done;
+    }
+    int nout = 0;
+    for (int j = 0; j < vs->n; j++) {
+        if (vs->v[j].causality != FMI_OUTPUT) {
+            continue;
+        }
+        nout++;
+        xmlNodePtr u = child(outs, "Unknown"), w = child(init, "Unknown");
+        if (u == NULL || w == NULL || !attr_num(u, "index", j + 1) || !attr_num(w, "index", j + 1)) {
+            goto done;
+        }
+    }
+    if (nout == 0) {
+        /* the schema wants at least one Unknown in a present element */
+        xmlUnlinkNode(outs);
+        xmlFreeNode(outs);
+        xmlUnlinkNode(init);
+        xmlFreeNode(init);
+    }
+    xmlDocDumpFormatMemoryEnc(doc, &job->xml, &job->xml_len, "UTF-8", 1);
+    ok = job->xml != NULL && job->xml_len > 0;
+done:
+    xmlFreeDoc(doc);
+    return ok;
+}
+
+static int readable_file(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        return 0;
+    }
+    fclose(f);
+    return 1;
+}
+
+/* Adds one file to the archive from memory (copied by libzip on close). */
+static int zip_add_buffer(zip_t *z, const char *name, const void *data, size_t len)
+{
+    zip_source_t *src = zip_source_buffer(z, data, len, 0);
+    if (src == NULL) {
+        return 0;
+    }
+    if (zip_file_add(z, name, src, ZIP_FL_OVERWRITE | ZIP_FL_ENC_UTF_8) < 0) {
+        zip_source_free(src);
+        return 0;
+    }
+    return 1;
+}
+
+static int write_fmu(const scene_t *s, const fmu_job_t *job, const log_t *log)
+{
+    int err = 0;
+    zip_t *z = zip_open(job->out, ZIP_CREATE | ZIP_TRUNCATE, &err);
+    if (z == NULL) {
+        zip_error_t ze;
+        zip_error_init_with_code(&ze, err);
+        log_msg(log, STATUS_ERROR, CAT, "cannot create %s: %s", job->out, zip_error_strerror(&ze));
+        zip_error_fini(&ze);
+        return 0;
+    }
+    char lib_name[64];
+    snprintf(lib_name, sizeof lib_name, "binaries/linux64/%s.so", job->model->identifier);
+    zip_source_t *lib = NULL;
+    int ok = zip_dir_add(z, "binaries/", ZIP_FL_ENC_UTF_8) >= 0 &&
+             zip_dir_add(z, "binaries/linux64/", ZIP_FL_ENC_UTF_8) >= 0 &&
+             zip_dir_add(z, "resources/", ZIP_FL_ENC_UTF_8) >= 0 &&
+             zip_add_buffer(z, "modelDescription.xml", job->xml, (size_t)job->xml_len) &&
+             zip_add_buffer(z, "resources/scene.yaml", s->text, strlen(s->text)) &&
+             (lib = zip_source_file(z, job->lib, 0, -1)) != NULL;
+    if (ok && zip_file_add(z, lib_name, lib, ZIP_FL_OVERWRITE | ZIP_FL_ENC_UTF_8) < 0) {
+        zip_source_free(lib);
+        ok = 0;
+    }
+    if (!ok) {
+        log_msg(log, STATUS_ERROR, CAT, "cannot assemble %s: %s", job->out, zip_strerror(z));
+        zip_discard(z);
+        return 0;
+    }
+    if (zip_close(z) != 0) {
+        log_msg(log, STATUS_ERROR, CAT, "cannot write %s: %s", job->out, zip_strerror(z));
+        zip_discard(z);
+        return 0;
+    }
+    return 1;
+}
+
+int export_fmus(const scene_t *scene, const char *dir, const char *lib_dir, const log_t *log)
+{
+    fmu_job_t jobs[2];
+    const fmi_model_t *models[2] = {&fluid_fmi_model, &rigid_fmi_model};
+    int njobs = 0, rc = 1;
+    memset(jobs, 0, sizeof jobs);
+    for (int k = 0; k < 2; k++) {
+        fmu_job_t *job = &jobs[njobs];
+        job->model = models[k];
+        status_t st = models[k]->variables(scene, log, &job->vars);
+        if (st == STATUS_DISCARD) {
+            continue; /* no free bodies: no rigid.fmu (said below) */
+        }
+        njobs++;
+        if (st != STATUS_OK) {
+            goto done;
+        }
+        if (snprintf(job->lib, sizeof job->lib, "%s/%s.so", lib_dir, models[k]->identifier) >= (int)sizeof job->lib ||
+            snprintf(job->out, sizeof job->out, "%s/%s.fmu", dir, models[k]->identifier) >= (int)sizeof job->out) {
+            log_msg(log, STATUS_ERROR, CAT, "path too long: %s", dir);
+            goto done;
+        }
+        if (!readable_file(job->lib)) {
+            log_msg(log, STATUS_ERROR, CAT, "cannot read the FMU library %s: %s (build it with `make fmus`)", job->lib,
+                    strerror(errno));
+            goto done;
+        }
+        if (!build_description(scene, job)) {
+            log_msg(log, STATUS_ERROR, CAT, "out of memory building modelDescription.xml of %s",
+                    models[k]->identifier);
+            goto done;
+        }
+    }
+    struct stat sb;
+    if (stat(dir, &sb) != 0) {
+        if (errno != ENOENT || mkdir(dir, 0777) != 0) {
+            log_msg(log, STATUS_ERROR, CAT, "cannot create the output folder %s: %s", dir, strerror(errno));
+            goto done;
+        }
+    } else if (!S_ISDIR(sb.st_mode)) {
+        log_msg(log, STATUS_ERROR, CAT, "%s exists and is not a folder; allowed: a writable folder for the FMUs", dir);
+        goto done;
+    } else if (access(dir, W_OK | X_OK) != 0) {
+        log_msg(log, STATUS_ERROR, CAT, "cannot write to the folder %s: %s", dir, strerror(errno));
+        goto done;
+    }
+    for (int k = 0; k < njobs; k++) {
+        if (!write_fmu(scene, &jobs[k], log)) {
+            for (int j = 0; j < k; j++) {
+                remove(jobs[j].out); /* all or nothing */
+            }
+            goto done;
+        }
+        int nin = 0, nout = 0, npar = 0;
+        for (int j = 0; j < jobs[k].vars.n; j++) {
+            nin += jobs[k].vars.v[j].causality == FMI_INPUT;
+            nout += jobs[k].vars.v[j].causality == FMI_OUTPUT;
+            npar += jobs[k].vars.v[j].causality == FMI_PARAMETER;
+        }
+        printf("%s: %d parameters, %d inputs, %d outputs\n", jobs[k].out, npar, nin, nout);
+    }
+    if (njobs == 1) {
+        printf("no rigid.fmu: the scene has no free bodies, so the fluid runs alone\n");
+    }
+    rc = 0;
+done:
+    for (int k = 0; k < 2; k++) {
+        fmi_vars_free(&jobs[k].vars);
+        xmlFree(jobs[k].xml);
+    }
+    return rc;
+}

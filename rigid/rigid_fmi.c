@@ -1,0 +1,319 @@
+/* rigid_fmi.c — the rigid component as an FMI 2.0 Co-Simulation FMU: the
+ * scene -> rigid_config_t translation and the mapping between value
+ * references and the native API (rigid.h). The FMI entry points, call-order
+ * checks and logging are common/fmi_adapter.c.
+ *
+ * What the FMU covers: the rigid component is built from every body of the
+ * scene; fixed and prescribed bodies enter as fixed bodies (obstacles for
+ * contacts: prescribed motion belongs to the fluid, so the rigid side sees a
+ * prescribed body where it starts). Only spheres of free bodies have
+ * variables. Variables (SI, structured names, global sphere index i: bodies
+ * in scene order, their spheres in order; k: index in the scene's
+ * connections list):
+ *   parameters  rigid.gravity.x|y|z, rigid.substeps, rigid.rtol, rigid.atol,
+ *               fluid.density (buoyancy)
+ *   inputs      sphere[i].force|torque.x|y|z (hydrodynamic; start 0)
+ *   outputs     sphere[i].position|velocity|angular_velocity.x|y|z
+ *               connection[k].force|torque.x|y|z, connection[k].intact
+ * Connections created when bodies stick (beyond the scene's list) are not
+ * exposed. A scene without free bodies needs no rigid FMU (variables()
+ * answers STATUS_DISCARD). fmi2DoStep(h) is rigid_step(h) with any h > 0. */
+#include "../common/fmi_adapter.h"
+#include "rigid.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+enum { Q_FORCE, Q_TORQUE, Q_POSITION, Q_VELOCITY, Q_ANGULAR_VELOCITY, Q_CONN_FORCE, Q_CONN_TORQUE, Q_CONN_INTACT };
+
+static const char *const AXIS = "xyz";
+
+typedef struct {
+    rigid_t *r;
+    int ns;
+    double *load; /* per sphere: force[3], torque[3] */
+} rigid_fmi_t;
+
+static status_t oom(const log_t *log)
+{
+    return log_msg(log, STATUS_FATAL, "rigid", "out of memory");
+}
+
+static int free_bodies(const scene_t *s)
+{
+    int n = 0;
+    for (int b = 0; b < s->nbodies; b++) {
+        n += s->bodies[b].motion == MOTION_FREE;
+    }
+    return n;
+}
+
+static status_t add_vector(fmi_vars_t *vs, fmi_causality_t causality, int what, const char *kind, int index,
+                           const char *quantity, const char *unit, const char *desc, const log_t *log)
+{
+    for (int a = 0; a < 3; a++) {
+        fmi_var_t *v = fmi_vars_add(vs, FMI_REAL, causality, unit, "%s[%d].%s.%c", kind, index, quantity, AXIS[a]);
+        if (v == NULL) {
+            return oom(log);
+        }
+        snprintf(v->description, sizeof v->description, "%s of %s %d, %c component", desc, kind, index, AXIS[a]);
+        v->what = what;
+        v->index = index;
+        v->axis = a;
+    }
+    return STATUS_OK;
+}
+
+static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *out)
+{
+    fmi_vars_t vs = {0};
+    status_t st = STATUS_OK;
+    const double inf = INFINITY;
+    *out = vs;
+    if (free_bodies(s) == 0) {
+        return STATUS_DISCARD; /* the caller says what it means for it */
+    }
+    for (int a = 0; a < 3; a++) {
+        char name[40], desc[60];
+        snprintf(name, sizeof name, "rigid.gravity.%c", AXIS[a]);
+        snprintf(desc, sizeof desc, "gravitational acceleration, %c component", AXIS[a]);
+        if (!fmi_vars_param(&vs, name, "rigid.gravity", a, "m/s2", s->rigid.gravity[a], -inf, inf, 0, desc)) {
+            st = oom(log);
+            goto done;
+        }
+    }
+    fmi_var_t *sub = fmi_vars_param(&vs, "rigid.substeps", "rigid.substeps", -1, NULL, s->rigid.substeps, 1.0, 1e6,
+                                    0, "rigid sub-steps per communication step (hydrodynamic load held)");
+    if (sub == NULL) {
+        st = oom(log);
+        goto done;
+    }
+    sub->type = FMI_INTEGER;
+    if (!fmi_vars_param(&vs, "rigid.rtol", "rigid.rtol", -1, NULL, s->rigid.rtol, 0.0, 1.0, FMI_LO_OPEN | FMI_HI_OPEN,
+                        "CVODE relative tolerance (integrator cvode)") ||
+        !fmi_vars_param(&vs, "rigid.atol", "rigid.atol", -1, NULL, s->rigid.atol, 0.0, inf, FMI_LO_OPEN,
+                        "CVODE absolute tolerance on the scaled state (integrator cvode)") ||
+        !fmi_vars_param(&vs, "fluid.density", "fluid.density", -1, "kg/m3", s->fluid.density, 0.0, inf, FMI_LO_OPEN,
+                        "fluid density, for buoyancy")) {
+        st = oom(log);
+        goto done;
+    }
+    for (int b = 0, i = 0; b < s->nbodies; b++) {
+        for (int k = 0; k < s->bodies[b].nspheres; k++, i++) {
+            if (s->bodies[b].motion != MOTION_FREE) {
+                continue;
+            }
+            if ((st = add_vector(&vs, FMI_INPUT, Q_FORCE, "sphere", i, "force", "N", "hydrodynamic force", log)) ||
+                (st = add_vector(&vs, FMI_INPUT, Q_TORQUE, "sphere", i, "torque", "N.m",
+                                 "hydrodynamic torque about the centre", log))) {
+                goto done;
+            }
+        }
+    }
+    for (int b = 0, i = 0; b < s->nbodies; b++) {
+        for (int k = 0; k < s->bodies[b].nspheres; k++, i++) {
+            if (s->bodies[b].motion != MOTION_FREE) {
+                continue;
+            }
+            if ((st = add_vector(&vs, FMI_OUTPUT, Q_POSITION, "sphere", i, "position", "m", "centre position", log)) ||
+                (st = add_vector(&vs, FMI_OUTPUT, Q_VELOCITY, "sphere", i, "velocity", "m/s", "centre velocity",
+                                 log)) ||
+                (st = add_vector(&vs, FMI_OUTPUT, Q_ANGULAR_VELOCITY, "sphere", i, "angular_velocity", "rad/s",
+                                 "angular velocity", log))) {
+                goto done;
+            }
+        }
+    }
+    for (int k = 0; k < s->nconnections; k++) {
+        if ((st = add_vector(&vs, FMI_OUTPUT, Q_CONN_FORCE, "connection", k, "force", "N",
+                             "force on the section holding sphere a (Eq. 8)", log)) ||
+            (st = add_vector(&vs, FMI_OUTPUT, Q_CONN_TORQUE, "connection", k, "torque", "N.m",
+                             "torque on that section about the connection point (Eq. 9)", log))) {
+            goto done;
+        }
+        fmi_var_t *v = fmi_vars_add(&vs, FMI_BOOLEAN, FMI_OUTPUT, NULL, "connection[%d].intact", k);
+        if (v == NULL) {
+            st = oom(log);
+            goto done;
+        }
+        snprintf(v->description, sizeof v->description, "true until connection %d (spheres %d-%d) breaks", k,
+                 s->connections[k].a, s->connections[k].b);
+        v->what = Q_CONN_INTACT;
+        v->index = k;
+    }
+done:
+    if (st != STATUS_OK) {
+        fmi_vars_free(&vs);
+    }
+    *out = vs;
+    return st;
+}
+
+static int is_wall(face_type_t t)
+{
+    return t == FACE_NO_SLIP || t == FACE_FREE_SLIP || t == FACE_MOVING_WALL;
+}
+
+static void rigid_fmi_free(void *comp)
+{
+    rigid_fmi_t *m = comp;
+    if (m == NULL) {
+        return;
+    }
+    rigid_free(m->r);
+    free(m->load);
+    free(m);
+}
+
+static status_t rigid_fmi_create(const scene_t *s, double t0, const log_t *log, void **comp)
+{
+    *comp = NULL;
+    const int ns = scene_total_spheres(s);
+    rigid_sphere_cfg_t *sp = calloc((size_t)ns + 1, sizeof *sp);
+    rigid_body_cfg_t *bd = calloc((size_t)s->nbodies + 1, sizeof *bd);
+    rigid_connection_cfg_t *cn = calloc((size_t)s->nconnections + 1, sizeof *cn);
+    rigid_fmi_t *m = calloc(1, sizeof *m);
+    status_t st = STATUS_OK;
+    if (sp == NULL || bd == NULL || cn == NULL || m == NULL ||
+        (m->load = calloc(6 * (size_t)ns + 1, sizeof(double))) == NULL) {
+        st = oom(log);
+        goto done;
+    }
+    m->ns = ns;
+    for (int b = 0, i = 0; b < s->nbodies; b++) {
+        const scene_body_t *body = &s->bodies[b];
+        bd[b].density = body->density;
+        bd[b].fixed = body->motion != MOTION_FREE;
+        for (int a = 0; a < 3; a++) {
+            bd[b].velocity[a] = bd[b].fixed ? 0.0 : body->velocity[a];
+            bd[b].angular_velocity[a] = bd[b].fixed ? 0.0 : body->angular_velocity[a];
+        }
+        for (int k = 0; k < body->nspheres; k++, i++) {
+            for (int a = 0; a < 3; a++) {
+                sp[i].center[a] = body->spheres[k].center[a];
+            }
+            sp[i].radius = body->spheres[k].radius;
+            sp[i].body = b;
+        }
+    }
+    for (int k = 0; k < s->nconnections; k++) {
+        cn[k] = (rigid_connection_cfg_t){s->connections[k].a, s->connections[k].b, s->connections[k].max_normal,
+                                         s->connections[k].max_shear, s->connections[k].max_torque};
+    }
+    rigid_config_t cfg = {
+        .nspheres = ns,
+        .nbodies = s->nbodies,
+        .nconnections = s->nconnections,
+        .spheres = sp,
+        .bodies = bd,
+        .connections = cn,
+        .fluid_density = s->fluid.density,
+        .contact_model = s->contacts.model == CONTACT_HERTZ            ? RIGID_CONTACT_HERTZ
+                         : s->contacts.model == CONTACT_SPRING_DASHPOT ? RIGID_CONTACT_SPRING_DASHPOT
+                                                                       : RIGID_CONTACT_NONE,
+        .restitution = s->contacts.restitution,
+        .contact_time = s->contacts.contact_time,
+        .friction = s->contacts.friction,
+        .young_modulus = s->contacts.young_modulus,
+        .poisson_ratio = s->contacts.poisson_ratio,
+        .stick_speed = s->contacts.stick_speed,
+        .integrator = s->rigid.integrator == INTEGRATOR_CVODE ? RIGID_CVODE : RIGID_VERLET,
+        .cvode_method = s->rigid.cvode_method == CVODE_ADAMS ? RIGID_ADAMS : RIGID_BDF,
+        .linsol = s->rigid.linear_solver == LINSOL_SPGMR ? RIGID_LS_SPGMR : RIGID_LS_DENSE,
+        .rtol = s->rigid.rtol,
+        .atol = s->rigid.atol,
+        .substeps = s->rigid.substeps,
+        .t0 = t0,
+    };
+    for (int a = 0; a < 3; a++) {
+        cfg.gravity[a] = s->rigid.gravity[a];
+        cfg.walls[a][0] = is_wall(s->domain.faces[2 * a].type);
+        cfg.walls[a][1] = is_wall(s->domain.faces[2 * a + 1].type);
+        cfg.box_lo[a] = 0.0;
+        cfg.box_hi[a] = s->domain.size[a];
+    }
+    st = rigid_create(&cfg, log, &m->r);
+    if (st >= STATUS_ERROR) {
+        m->r = NULL;
+    }
+done:
+    free(sp);
+    free(bd);
+    free(cn);
+    if (st >= STATUS_ERROR) {
+        rigid_fmi_free(m);
+        return st;
+    }
+    *comp = m;
+    return st;
+}
+
+static status_t rigid_fmi_step(void *comp, const fmi_vars_t *vars, const double *values, double t, double h,
+                               const log_t *log)
+{
+    (void)t;
+    (void)log;
+    rigid_fmi_t *m = comp;
+    for (int j = 0; j < vars->n; j++) {
+        const fmi_var_t *v = &vars->v[j];
+        if (v->causality == FMI_INPUT) {
+            m->load[6 * v->index + 3 * v->what + v->axis] = values[j];
+        }
+    }
+    for (int i = 0; i < m->ns; i++) {
+        rigid_set_sphere_load(m->r, i, &m->load[6 * i], &m->load[6 * i + 3]);
+    }
+    return rigid_step(m->r, h);
+}
+
+static void rigid_fmi_outputs(void *comp, const fmi_vars_t *vars, double *values)
+{
+    const rigid_fmi_t *m = comp;
+    for (int j = 0; j < vars->n; j++) {
+        const fmi_var_t *v = &vars->v[j];
+        if (v->causality != FMI_OUTPUT) {
+            continue;
+        }
+        double q[3][3];
+        int intact = 0;
+        if (v->what <= Q_ANGULAR_VELOCITY) {
+            rigid_get_sphere(m->r, v->index, q[0], q[1], q[2]);
+            values[j] = q[v->what - Q_POSITION][v->axis];
+        } else {
+            rigid_get_connection(m->r, v->index, q[0], q[1], &intact);
+            values[j] = v->what == Q_CONN_INTACT ? (intact ? 1.0 : 0.0) : q[v->what - Q_CONN_FORCE][v->axis];
+        }
+    }
+}
+
+static size_t rigid_fmi_state_size(void *comp)
+{
+    return rigid_state_size(((rigid_fmi_t *)comp)->r);
+}
+
+static status_t rigid_fmi_state_save(void *comp, void *buf, size_t size)
+{
+    return rigid_state_save(((rigid_fmi_t *)comp)->r, buf, size);
+}
+
+static status_t rigid_fmi_state_restore(void *comp, const void *buf, size_t size)
+{
+    return rigid_state_restore(((rigid_fmi_t *)comp)->r, buf, size);
+}
+
+const fmi_model_t rigid_fmi_model = {
+    .identifier = "rigid",
+    .description = "Rigid agglomerates of sintered spheres: per-sphere hydrodynamic load in, "
+                   "kinematics and connection loads out",
+    .can_variable_step = 1,
+    .variables = rigid_variables,
+    .create = rigid_fmi_create,
+    .free = rigid_fmi_free,
+    .check_step = NULL,
+    .step = rigid_fmi_step,
+    .outputs = rigid_fmi_outputs,
+    .state_size = rigid_fmi_state_size,
+    .state_save = rigid_fmi_state_save,
+    .state_restore = rigid_fmi_state_restore,
+};

@@ -1,0 +1,340 @@
+"""The FMUs (DESIGN section 2, issue 5): `coupler export`, fmpy's validator and
+simulator on each FMU, illegal call sequences, and FMU state save/restore.
+
+Scenes are tiny (16^3 periodic box, dx = 10 um, one sphere of radius 3 cells)
+so the whole file runs in seconds."""
+import ctypes
+import math
+import pathlib
+import shutil
+import xml.etree.ElementTree as ET
+import zipfile
+
+import fmpy
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+from fmpy.validation import validate_fmu
+
+from conftest import run
+
+SCENE = """\
+domain:
+  size: [1.6e-4, 1.6e-4, 1.6e-4]
+fluid:
+  density: 1000.0
+  viscosity: 1.0e-6
+  dx: 1.0e-5
+  tau: 0.8
+bodies:
+  - name: p
+    density: 2000.0{motion}
+    spheres:
+      - {{center: [8.0e-5, 8.0e-5, 8.0e-5], radius: 3.0e-5}}
+rigid: {{gravity: [0, 0, -9.81]}}
+run: {{end_time: 1.0e-3, output_interval: 1.0e-4}}
+"""
+
+PAIR = """\
+domain:
+  size: [1.6e-4, 1.6e-4, 1.6e-4]
+fluid: {density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-5, tau: 0.8}
+bodies:
+  - density: 2000.0
+    spheres:
+      - {center: [6.0e-5, 8.0e-5, 8.0e-5], radius: 2.0e-5}
+      - {center: [1.0e-4, 8.0e-5, 8.0e-5], radius: 2.0e-5}
+connections:
+  - {spheres: [0, 1]}
+rigid: {gravity: [0, 0, -9.81]}
+run: {end_time: 1.0e-3, output_interval: 1.0e-4}
+"""
+
+DT = 1e-5  # tau 0.8, dx 1e-5, nu 1e-6: dt = (tau - 1/2) dx^2 / (3 nu)
+G, RHO_F, RHO_P = 9.81, 1000.0, 2000.0
+Z0 = 8.0e-5
+
+
+def export(tmp, name, text, *sets):
+    scene = tmp / f"{name}.yaml"
+    scene.write_text(text)
+    out = tmp / name
+    args = ["export", scene, "-d", out]
+    for s in sets:
+        args += ["--set", s]
+    p = run(*args)
+    assert p.returncode == 0, p.stderr
+    return out, p
+
+
+@pytest.fixture(scope="session")
+def fmus(coupler, tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("fmus")
+    free, _ = export(tmp, "free", SCENE.format(motion=""))
+    fixed, p_fixed = export(tmp, "fixed", SCENE.format(motion="\n    motion: fixed"))
+    pair, _ = export(tmp, "pair", PAIR)
+    cvode, _ = export(tmp, "cvode", SCENE.format(motion=""), "rigid.integrator=cvode")
+    return {"free": free, "fixed": fixed, "pair": pair, "cvode": cvode, "fixed_stdout": p_fixed.stdout}
+
+
+def variables(fmu):
+    md = fmpy.read_model_description(str(fmu))
+    return md, {v.name: v for v in md.modelVariables}
+
+
+# --- export -------------------------------------------------------------------
+
+
+def test_export_writes_both_fmus_with_scene_and_library(fmus):
+    for name in ("fluid", "rigid"):
+        path = fmus["free"] / f"{name}.fmu"
+        with zipfile.ZipFile(path) as z:
+            names = z.namelist()
+            assert "modelDescription.xml" in names
+            assert f"binaries/linux64/{name}.so" in names
+            assert "resources/scene.yaml" in names
+            assert "bodies:" in z.read("resources/scene.yaml").decode()
+
+
+def test_scene_without_free_bodies_has_no_rigid_fmu(fmus):
+    assert (fmus["fixed"] / "fluid.fmu").exists()
+    assert not (fmus["fixed"] / "rigid.fmu").exists()
+    assert "no rigid.fmu" in fmus["fixed_stdout"]
+    _, v = variables(fmus["fixed"] / "fluid.fmu")
+    assert not any(n.startswith("sphere[0].position") for n in v)  # the fluid moves a fixed sphere itself
+    assert v["sphere[0].force.x"].causality == "output"
+
+
+def test_set_is_written_into_the_resources(fmus):
+    with zipfile.ZipFile(fmus["cvode"] / "rigid.fmu") as z:
+        assert "cvode" in z.read("resources/scene.yaml").decode()
+
+
+def test_export_errors_write_nothing(coupler, tmp_path):
+    scene = tmp_path / "s.yaml"
+    scene.write_text(SCENE.format(motion=""))
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    p = run("export", scene, "-d", blocker)
+    assert p.returncode == 1 and "not a folder" in p.stderr
+    p = run("export", scene, "-d", tmp_path / "out", "--set", "fluid.tau=0.4")
+    assert p.returncode == 1 and "fluid.tau" in p.stderr
+    assert not (tmp_path / "out").exists()
+    p = run("export", scene)
+    assert p.returncode == 2
+
+
+# --- model description ----------------------------------------------------------
+
+
+def test_fmpy_validates_every_fmu(fmus):
+    for fmu in [fmus["free"] / "fluid.fmu", fmus["free"] / "rigid.fmu", fmus["fixed"] / "fluid.fmu",
+                fmus["pair"] / "fluid.fmu", fmus["pair"] / "rigid.fmu"]:
+        assert validate_fmu(str(fmu)) == [], fmu
+
+
+def test_variable_naming_contract(fmus):
+    md, v = variables(fmus["free"] / "fluid.fmu")
+    assert md.coSimulation.modelIdentifier == "fluid" and md.variableNamingConvention == "structured"
+    assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
+    assert not md.coSimulation.providesDirectionalDerivative
+    for q, unit in (("position", "m"), ("velocity", "m/s"), ("angular_velocity", "rad/s")):
+        for a in "xyz":
+            assert v[f"sphere[0].{q}.{a}"].causality == "input" and v[f"sphere[0].{q}.{a}"].unit == unit
+    for q, unit in (("force", "N"), ("torque", "N.m")):
+        for a in "xyz":
+            assert v[f"sphere[0].{q}.{a}"].causality == "output" and v[f"sphere[0].{q}.{a}"].unit == unit
+    assert float(v["sphere[0].position.z"].start) == Z0
+    tau = v["fluid.tau"]
+    assert tau.causality == "parameter" and tau.variability == "fixed" and float(tau.min) == 0.5
+    outputs = [u.variable.name for u in md.outputs]
+    assert outputs == [n for n, x in v.items() if x.causality == "output"]
+
+    md, v = variables(fmus["pair"] / "rigid.fmu")
+    assert md.coSimulation.modelIdentifier == "rigid"
+    for k in ("sphere[0].force.x", "sphere[1].torque.z"):
+        assert v[k].causality == "input"
+    for k in ("sphere[1].position.x", "sphere[0].angular_velocity.y", "connection[0].force.z",
+              "connection[0].torque.x"):
+        assert v[k].causality == "output"
+    assert v["connection[0].intact"].type == "Boolean"
+    assert v["rigid.substeps"].type == "Integer"
+    _, fv = variables(fmus["free"] / "rigid.fmu")
+    assert not any(n.startswith("connection") for n in fv)  # only what the scene needs
+    assert md.guid != fmpy.read_model_description(str(fmus["pair"] / "fluid.fmu")).guid
+
+
+# --- simulation, each FMU alone --------------------------------------------------
+
+
+@pytest.mark.parametrize("which", ["free", "cvode"])
+def test_rigid_alone_falls_freely(fmus, which):
+    """Zero hydrodynamic force: z(t) = z0 - g (1 - rho_f/rho_p) t^2 / 2 (gravity and buoyancy).
+    Verlet is exact for a constant acceleration; CVODE gets rigid.rtol = 1e-12 as an FMU parameter
+    (its error control sees z ~ 8e-5 m, so the default 1e-8 leaves ~1e-10 m on a fall of 2.5e-9 m)."""
+    tight = {"rigid.rtol": 1e-12} if which == "cvode" else {}
+    r = fmpy.simulate_fmu(str(fmus[which] / "rigid.fmu"), stop_time=1e-3, step_size=DT, output_interval=DT,
+                          start_values=tight)
+    t, z = r["time"], r["sphere[0].position.z"]
+    a = G * (1 - RHO_F / RHO_P)
+    np.testing.assert_allclose(Z0 - z, 0.5 * a * t ** 2, rtol=1e-6, atol=1e-15)
+    np.testing.assert_allclose(r["sphere[0].velocity.z"], -a * t, rtol=1e-9, atol=1e-15)
+    # parameters are applied as scene overrides when the component is created
+    r = fmpy.simulate_fmu(str(fmus[which] / "rigid.fmu"), stop_time=1e-3, step_size=DT, output_interval=DT,
+                          start_values={**tight, "rigid.gravity.z": -2.0, "fluid.density": 500.0})
+    np.testing.assert_allclose(Z0 - r["sphere[0].position.z"], 0.5 * 2.0 * (1 - 500 / RHO_P) * r["time"] ** 2,
+                               rtol=1e-6, atol=1e-15)
+
+
+def test_fluid_alone_sphere_held_by_inputs(fmus):
+    fmu = str(fmus["free"] / "fluid.fmu")
+    # a body force drives the fluid past the held sphere: drag along +x only
+    r = fmpy.simulate_fmu(fmu, stop_time=40 * DT, step_size=DT, output_interval=DT,
+                          start_values={"fluid.body_force.x": 1.0e4})
+    fx = r["sphere[0].force.x"]
+    assert fx[-1] > 0 and np.all(np.diff(fx[5:]) > 0)
+    assert abs(r["sphere[0].force.y"][-1]) < 1e-9 * fx[-1] and abs(r["sphere[0].force.z"][-1]) < 1e-9 * fx[-1]
+    # a sphere held in place with a surface velocity -x drags the fluid: force along +x again (two steps at once)
+    r = fmpy.simulate_fmu(fmu, stop_time=40 * DT, step_size=2 * DT, output_interval=2 * DT,
+                          start_values={"sphere[0].velocity.x": -1.0e-3})
+    assert r["sphere[0].force.x"][-1] > 0
+    # a fixed sphere needs no inputs at all
+    r = fmpy.simulate_fmu(str(fmus["fixed"] / "fluid.fmu"), stop_time=10 * DT, step_size=DT,
+                          start_values={"fluid.body_force.x": 1.0e4})
+    assert r["sphere[0].force.x"][-1] > 0
+
+
+# --- the low-level API: illegal calls and FMU state ---------------------------------
+
+
+class Slave:
+    """An unpacked FMU instance with a logger that keeps every message."""
+
+    def __init__(self, fmu, tmp, name="a"):
+        self.dir = fmpy.extract(str(fmu), unzipdir=str(tmp / f"{pathlib.Path(fmu).stem}_{name}"))
+        self.md = fmpy.read_model_description(self.dir)
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.messages = []
+
+        def log(env, instance, status, category, message):
+            self.messages.append((status, category.decode(), message.decode()))
+
+        self.callbacks = fmi2CallbackFunctions()
+        self.callbacks.logger = fmi2CallbackLoggerTYPE(log)
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
+                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate(callbacks=self.callbacks)
+
+    def init(self):
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
+    def outputs(self):
+        return np.array(self.fmu.getReal([v.valueReference for v in self.md.modelVariables
+                                          if v.causality == "output" and v.type == "Real"]))
+
+    def fails(self, call, *args, expect="error"):
+        before = len(self.messages)
+        with pytest.raises(FMICallException):
+            call(*args)
+        text = " ".join(m[2] for m in self.messages[before:])
+        assert expect in text, text
+        assert any(m[0] == 3 and m[1] == "logStatusError" for m in self.messages[before:])
+
+    def close(self):
+        self.fmu.freeInstance()
+
+
+def test_illegal_calls_are_errors_not_crashes(fmus, tmp_path):
+    s = Slave(fmus["free"] / "fluid.fmu", tmp_path)
+    f = s.fmu
+    s.fails(f.doStep, 0.0, DT, expect="illegal call sequence")
+    s.fails(f.exitInitializationMode, expect="illegal call sequence")
+    s.fails(f.getReal, [s.vr["sphere[0].force.x"]], expect="illegal call sequence")
+    s.fails(f.setReal, [s.vr["fluid.tau"]], [0.5], expect="fluid.tau")  # open range (0.5, inf)
+    s.fails(f.setReal, [s.vr["fluid.viscosity"]], [-1.0], expect="out of range")
+    s.init()
+    s.fails(f.setReal, [s.vr["sphere[0].force.x"]], [1.0], expect="is an output")
+    s.fails(f.setReal, [s.vr["sphere[0].velocity.x"]], [math.nan], expect="finite")
+    s.fails(f.setReal, [s.vr["fluid.tau"]], [0.9], expect="fixed parameter")
+    s.fails(f.getReal, [10_000], expect="does not exist")
+    s.fails(f.getInteger, [s.vr["fluid.tau"]], expect="not Integer")
+    s.fails(f.doStep, 0.0, -DT, expect="communicationStepSize")
+    s.fails(f.doStep, 0.0, 0.0, expect="communicationStepSize")
+    s.fails(f.doStep, 0.5, DT, expect="not where the FMU is")
+    s.fails(f.doStep, 0.0, 1.5 * DT, expect="dt =")
+    s.fails(f.getDirectionalDerivative, [0], [1], [1.0], expect="not supported")
+    with pytest.raises(FMICallException):  # NULL arrays with nvr > 0
+        f.fmi2GetReal(f.component, None, 3, None)
+    # none of those changed anything: the instance steps on normally
+    f.doStep(0.0, DT)
+    f.doStep(DT, 2 * DT)
+    assert f.getRealStatus(2) == pytest.approx(3 * DT)  # fmi2LastSuccessfulTime
+    f.terminate()
+    s.fails(f.doStep, 3 * DT, DT, expect="illegal call sequence")
+    f.reset()  # back to Instantiated: a new run is possible
+    s.init()
+    f.doStep(0.0, DT)
+    s.close()
+
+
+def test_guid_and_resources_are_checked(fmus, tmp_path):
+    s = Slave(fmus["free"] / "fluid.fmu", tmp_path)
+    s.close()
+    md = s.md
+    bad = FMU2Slave(guid="{00000000-0000-0000-0000-000000000000}", unzipDirectory=s.dir,
+                    modelIdentifier="fluid", instanceName="x")
+    with pytest.raises(Exception, match="instantiate"):
+        bad.instantiate(callbacks=s.callbacks)
+    assert any("does not match" in m[2] for m in s.messages)
+    bad.freeLibrary()
+    (pathlib.Path(s.dir) / "resources" / "scene.yaml").unlink()
+    bad = FMU2Slave(guid=md.guid, unzipDirectory=s.dir, modelIdentifier="fluid", instanceName="y")
+    with pytest.raises(Exception, match="instantiate"):
+        bad.instantiate(callbacks=s.callbacks)
+    assert any("cannot open" in m[2] for m in s.messages)
+    bad.freeLibrary()
+
+
+def drive(s, inputs, t0, n, h=DT):
+    """n steps from t0 with fixed inputs; returns the outputs after each step."""
+    rows = []
+    for k in range(n):
+        s.fmu.setReal([s.vr[name] for name in inputs], list(inputs.values()))
+        s.fmu.doStep(t0 + k * h, h)
+        rows.append(s.outputs())
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("fmu,inputs", [
+    ("free/fluid.fmu", {"sphere[0].velocity.x": -2e-3, "sphere[0].angular_velocity.z": 5.0}),
+    ("free/rigid.fmu", {"sphere[0].force.x": 1e-9, "sphere[0].torque.z": 1e-15}),
+    ("cvode/rigid.fmu", {"sphere[0].force.x": 1e-9, "sphere[0].torque.z": 1e-15}),
+])
+def test_fmu_state_restore_is_bit_identical(fmus, tmp_path, fmu, inputs):
+    path = fmus[fmu.split("/")[0]] / fmu.split("/")[1]
+    s = Slave(path, tmp_path)
+    s.init()
+    n1, n2 = 5, 8
+    drive(s, inputs, 0.0, n1)
+    state = s.fmu.getFMUstate()
+    first = drive(s, inputs, n1 * DT, n2)
+    assert np.any(first[-1] != 0)
+    s.fmu.setFMUstate(state)
+    again = drive(s, inputs, n1 * DT, n2)
+    assert np.array_equal(first, again)
+    # serialised, deserialised, restored into a second instance of the same FMU
+    blob = s.fmu.serializeFMUstate(state)
+    s.fmu.freeFMUstate(state)
+    other = Slave(path, tmp_path, name="b")
+    other.init()
+    restored = other.fmu.deSerializeFMUstate(blob)
+    other.fmu.setFMUstate(restored)
+    assert np.array_equal(drive(other, inputs, n1 * DT, n2), first)
+    other.fmu.freeFMUstate(restored)
+    # a damaged blob is refused with a message
+    other.fails(other.fmu.deSerializeFMUstate, b"garbage" * 20, expect="bad magic")
+    other.close()
+    s.close()
