@@ -489,6 +489,37 @@ static void test_state_restore_bit_identical(void)
     fluid_free(r);
 }
 
+/* ---- bad input: a sphere that moves too far in one step ----------------- */
+
+static void test_sphere_speed_limits(void)
+{
+    scene_t s = test_box(16, 16, 16, 0.8, COLLISION_TRT);
+    const double c[3] = {8.0, 8.0, 8.0};
+    one_sphere(&s, c, 3.0, MOTION_FREE);
+    test_log_t tl;
+    log_t l = test_log(&tl);
+    fluid_t *fl = NULL;
+    CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &fl), STATUS_OK);
+    const double v0[3] = {0.1, 0, 0}, w0[3] = {0, 0, 0};
+    double p[3] = {8.1, 8.0, 8.0};
+    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_OK);
+    /* 0.7 cells in one step: a warning naming the sphere and the distance */
+    p[0] = 8.8;
+    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_WARNING);
+    CU_ASSERT(strstr(tl.last, "sphere 0") != NULL && strstr(tl.last, "0.7") != NULL);
+    /* 1.5 cells: an error, and the sphere stays where it was */
+    p[0] = 10.3;
+    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_ERROR);
+    CU_ASSERT(strstr(tl.last, "sphere 0") != NULL && strstr(tl.last, "limit 1 cell") != NULL);
+    double c1[3], v1[3], w1[3];
+    fluid_get_sphere(fl, 0, c1, v1, w1);
+    CU_ASSERT_DOUBLE_EQUAL(c1[0], 8.8, 1e-12);
+    /* a velocity above one cell per step is refused too */
+    const double vfast[3] = {1.2, 0, 0};
+    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, c1, vfast, w0), STATUS_ERROR);
+    fluid_free(fl);
+}
+
 void spheres_register_tests(int validate)
 {
     CU_pSuite s = CU_add_suite("spheres", NULL, NULL);
@@ -501,6 +532,7 @@ void spheres_register_tests(int validate)
     CU_add_test(s, "moving sphere: fluctuation a third of the paper's", test_moving_sphere_fluctuation);
     CU_add_test(s, "shift across a periodic face: same force", test_shift_across_periodic_face);
     CU_add_test(s, "state save/restore: bit-identical continuation", test_state_restore_bit_identical);
+    CU_add_test(s, "a sphere moving more than half a cell / a cell per step", test_sphere_speed_limits);
     if (validate) {
         CU_pSuite v = CU_add_suite("spheres-validate", NULL, NULL);
         CU_add_test(v, "periodic array r=8: Sangani-Acrivos within 0.2% at tau 0.6, 1.5", test_periodic_array_r8_taus);
