@@ -113,6 +113,8 @@ typedef struct {
     fmi_vars_t vars;
     double *values;    /* one per value reference */
     double *made_with; /* values when comp was created (parameters compared on restore) */
+    char **strings;    /* per value reference: the text of a String variable, else NULL */
+    int lazy_stale;    /* the lazy outputs in values[] are out of date */
     scene_t *scene;    /* the scene with parameters applied, alive while comp is */
     void *comp;
     double t, t_start, t_stop;
@@ -270,7 +272,7 @@ static int illegal(const inst_t *in, const char *fn, int mask)
 
 static const char *type_name(fmi_type_t t)
 {
-    return t == FMI_REAL ? "Real" : t == FMI_INTEGER ? "Integer" : "Boolean";
+    return t == FMI_REAL ? "Real" : t == FMI_INTEGER ? "Integer" : t == FMI_BOOLEAN ? "Boolean" : "String";
 }
 
 /* Value references exist and have the type of the function. */
@@ -388,8 +390,19 @@ static status_t ensure_component(inst_t *in, const char *fn)
         report(in, st, fn, "the %s component cannot be created (see the messages above)", MODEL->identifier);
         goto done;
     }
+    for (int j = 0; j < in->vars.n && MODEL->set_string != NULL; j++) {
+        if (in->strings[j] != NULL) {
+            st = status_worst(st, MODEL->set_string(in->comp, &in->vars.v[j], in->strings[j], &in->log));
+            if (st >= STATUS_ERROR) {
+                report(in, st, fn, "%s = '%s' cannot be used (see the messages above)", in->vars.v[j].name,
+                       in->strings[j]);
+                goto done;
+            }
+        }
+    }
     memcpy(in->made_with, in->values, (size_t)in->vars.n * sizeof(double));
     MODEL->outputs(in->comp, &in->vars, in->values);
+    in->lazy_stale = 1;
 done:
     if (st >= STATUS_ERROR) {
         drop_component(in);
@@ -519,6 +532,10 @@ static void free_instance(inst_t *in)
     drop_component(in);
     scene_free(in->base);
     fmi_vars_free(&in->vars);
+    for (int j = 0; in->strings != NULL && j < in->vars.n; j++) {
+        free(in->strings[j]);
+    }
+    free(in->strings);
     free(in->values);
     free(in->made_with);
     free(in->scene_path);
@@ -599,9 +616,16 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     }
     in->values = calloc((size_t)in->vars.n + 1, sizeof(double));
     in->made_with = calloc((size_t)in->vars.n + 1, sizeof(double));
-    if (in->values == NULL || in->made_with == NULL) {
+    in->strings = calloc((size_t)in->vars.n + 1, sizeof(char *));
+    if (in->values == NULL || in->made_with == NULL || in->strings == NULL) {
         report(in, STATUS_FATAL, fn, "out of memory");
         goto fail;
+    }
+    for (int j = 0; j < in->vars.n; j++) {
+        if (in->vars.v[j].type == FMI_STRING && (in->strings[j] = strdup("")) == NULL) {
+            report(in, STATUS_FATAL, fn, "out of memory");
+            goto fail;
+        }
     }
     for (int j = 0; j < in->vars.n; j++) {
         in->values[j] = in->vars.v[j].start;
@@ -726,6 +750,12 @@ static fmi2Status get_values(fmi2Component c, const char *fn, fmi_type_t type, c
     if (st >= fmi2Error) {
         return st;
     }
+    for (size_t i = 0; i < nvr && in->lazy_stale && in->comp != NULL; i++) {
+        if (in->vars.v[vr[i]].lazy) {
+            MODEL->lazy_outputs(in->comp, &in->vars, in->values);
+            in->lazy_stale = 0;
+        }
+    }
     for (size_t i = 0; i < nvr; i++) {
         const double x = in->values[vr[i]];
         if (type == FMI_REAL) {
@@ -757,11 +787,12 @@ fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[])
 {
     BEGIN("fmi2GetString", M_GET);
-    if (nvr > 0) {
-        return fail(in, "fmi2GetString", "the %s FMU has no String variables (nvr = %zu)", MODEL->identifier, nvr);
+    if (bad_refs(in, "fmi2GetString", vr, nvr, value, FMI_STRING)) {
+        return fmi2Error;
     }
-    (void)vr;
-    (void)value;
+    for (size_t i = 0; i < nvr; i++) {
+        value[i] = in->strings[vr[i]];
+    }
     return fmi2OK;
 }
 
@@ -842,14 +873,38 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
     return set_values(c, "fmi2SetBoolean", FMI_BOOLEAN, vr, nvr, value);
 }
 
+/* String variables are parameters: set before fmi2ExitInitializationMode. */
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[])
 {
-    BEGIN("fmi2SetString", M_SET);
-    if (nvr > 0) {
-        return fail(in, "fmi2SetString", "the %s FMU has no String variables (nvr = %zu)", MODEL->identifier, nvr);
+    const char *fn = "fmi2SetString";
+    BEGIN(fn, M_SET);
+    if (bad_refs(in, fn, vr, nvr, value, FMI_STRING)) {
+        return fmi2Error;
     }
-    (void)vr;
-    (void)value;
+    for (size_t i = 0; i < nvr; i++) {
+        const fmi_var_t *v = &in->vars.v[vr[i]];
+        if (v->causality != FMI_PARAMETER || !(in->state & M_SET_PARAMETER)) {
+            return fail(in, fn, "%s (value reference %u) is a fixed parameter: set it before "
+                        "fmi2ExitInitializationMode (state now %s)", v->name, vr[i],
+                        STATE_NAMES[state_index(in->state)]);
+        }
+        if (value[i] == NULL) {
+            return fail(in, fn, "%s (value reference %u) = NULL; allowed: a string (\"\" for none)", v->name, vr[i]);
+        }
+    }
+    for (size_t i = 0; i < nvr; i++) {
+        char *copy = strdup(value[i]);
+        if (copy == NULL) {
+            return fail(in, fn, "out of memory");
+        }
+        trace(in, fn, "%s = '%s'", in->vars.v[vr[i]].name, copy);
+        free(in->strings[vr[i]]);
+        in->strings[vr[i]] = copy;
+    }
+    if (nvr > 0 && in->comp != NULL) {
+        report(in, STATUS_OK, fn, "parameter changed: the component will be re-created");
+        drop_component(in);
+    }
     return fmi2OK;
 }
 
@@ -1001,6 +1056,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
         }
         memcpy(in->made_with, made_with, nval);
         MODEL->outputs(in->comp, &in->vars, in->values);
+        in->lazy_stale = 1;
     }
     in->state = h.state;
     return fmi2OK;
@@ -1133,6 +1189,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
         return report(in, st, fn, "the %s step from t = %.17g s was discarded", MODEL->identifier, t);
     }
     MODEL->outputs(in->comp, &in->vars, in->values);
+    in->lazy_stale = 1;
     in->t = t + h;
     return (fmi2Status)st;
 }

@@ -11,7 +11,11 @@
  * Value references are indices into the variable list (0, 1, ..., n-1). All
  * values are stored as doubles (Integer and Boolean values are exact in a
  * double); the generic layer owns them: inputs and parameters are written by
- * the master, outputs by the model after creation, each step and each restore. */
+ * the master, outputs by the model after creation, each step and each restore.
+ * Exceptions: String variables (parameters only, start "") are kept as text
+ * and handed to the model by set_string after creation; outputs marked lazy
+ * (costly, e.g. a pass over the whole grid) are computed by lazy_outputs only
+ * when a master reads one after a step, not after every step. */
 #ifndef COMMON_FMI_ADAPTER_H
 #define COMMON_FMI_ADAPTER_H
 
@@ -20,7 +24,7 @@
 
 #include <stddef.h>
 
-typedef enum { FMI_REAL, FMI_INTEGER, FMI_BOOLEAN } fmi_type_t;
+typedef enum { FMI_REAL, FMI_INTEGER, FMI_BOOLEAN, FMI_STRING } fmi_type_t;
 typedef enum { FMI_PARAMETER, FMI_INPUT, FMI_OUTPUT } fmi_causality_t;
 
 /* Range flags of a parameter: the modelDescription min/max are inclusive,
@@ -40,6 +44,7 @@ typedef struct {
     double start;                   /* inputs and parameters */
     double min, max;                /* parameters: allowed range (may be +-INFINITY) */
     int range_flags;                /* FMI_LO_OPEN | FMI_HI_OPEN */
+    int lazy;                       /* outputs: computed by lazy_outputs when read */
     /* Parameters: the scene key the value overrides; component >= 0 for one
      * element of a 3-vector key (the override then writes the whole vector). */
     char key[FMI_KEY_MAX];
@@ -71,6 +76,11 @@ typedef struct {
     status_t (*step)(void *comp, const fmi_vars_t *vars, const double *values, double t, double h, const log_t *log);
     /* Writes every output into values[]. */
     void (*outputs)(void *comp, const fmi_vars_t *vars, double *values);
+    /* Optional: computes the outputs marked lazy (NULL: the model has none). */
+    void (*lazy_outputs)(void *comp, const fmi_vars_t *vars, double *values);
+    /* Optional: a String parameter's value, called right after create (NULL:
+     * the model has no String variables). */
+    status_t (*set_string)(void *comp, const fmi_var_t *var, const char *value, const log_t *log);
     size_t (*state_size)(void *comp);
     status_t (*state_save)(void *comp, void *buf, size_t size);
     status_t (*state_restore)(void *comp, const void *buf, size_t size);

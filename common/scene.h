@@ -112,7 +112,7 @@ typedef struct {
     double field_interval;  /* s; output_interval when not given */
 } scene_run_t;
 
-typedef struct {
+typedef struct scene {
     char *path;  /* file the scene came from */
     char *text;  /* the scene text after --set overrides (stored in the output) */
     scene_domain_t domain;

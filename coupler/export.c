@@ -124,20 +124,24 @@ static int add_variable(xmlNodePtr list, const fmi_var_t *v, int vr)
         (v->causality == FMI_OUTPUT && !attr(sv, "initial", "calculated"))) {
         return 0;
     }
-    xmlNodePtr t = child(sv, v->type == FMI_REAL ? "Real" : v->type == FMI_INTEGER ? "Integer" : "Boolean");
+    xmlNodePtr t = child(sv, v->type == FMI_REAL      ? "Real"
+                             : v->type == FMI_INTEGER ? "Integer"
+                             : v->type == FMI_BOOLEAN ? "Boolean"
+                                                      : "String");
     if (t == NULL) {
         return 0;
     }
     if (v->causality != FMI_OUTPUT) {
-        if (v->type == FMI_BOOLEAN ? !attr(t, "start", v->start != 0.0 ? "true" : "false")
-                                   : !attr_num(t, "start", v->start)) {
+        if (v->type == FMI_STRING    ? !attr(t, "start", "")
+            : v->type == FMI_BOOLEAN ? !attr(t, "start", v->start != 0.0 ? "true" : "false")
+                                     : !attr_num(t, "start", v->start)) {
             return 0;
         }
     }
     if (v->type == FMI_REAL && v->unit != NULL && !attr(t, "unit", v->unit)) {
         return 0;
     }
-    if (v->causality == FMI_PARAMETER && v->type != FMI_BOOLEAN) {
+    if (v->causality == FMI_PARAMETER && v->type != FMI_BOOLEAN && v->type != FMI_STRING) {
         if ((isfinite(v->min) && !attr_num(t, "min", v->min)) || (isfinite(v->max) && !attr_num(t, "max", v->max))) {
             return 0;
         }
@@ -296,7 +300,7 @@ static int write_fmu(const scene_t *s, const fmu_job_t *job, const log_t *log)
     return 1;
 }
 
-int export_fmus(const scene_t *scene, const char *dir, const char *lib_dir, const log_t *log)
+int export_fmus(const scene_t *scene, const char *dir, const char *lib_dir, int verbose, const log_t *log)
 {
     fmu_job_t jobs[2];
     const fmi_model_t *models[2] = {&fluid_fmi_model, &rigid_fmi_model};
@@ -349,6 +353,9 @@ int export_fmus(const scene_t *scene, const char *dir, const char *lib_dir, cons
             }
             goto done;
         }
+        if (!verbose) {
+            continue;
+        }
         int nin = 0, nout = 0, npar = 0;
         for (int j = 0; j < jobs[k].vars.n; j++) {
             nin += jobs[k].vars.v[j].causality == FMI_INPUT;
@@ -357,7 +364,7 @@ int export_fmus(const scene_t *scene, const char *dir, const char *lib_dir, cons
         }
         printf("%s: %d parameters, %d inputs, %d outputs\n", jobs[k].out, npar, nin, nout);
     }
-    if (njobs == 1) {
+    if (njobs == 1 && verbose) {
         printf("no rigid.fmu: the scene has no free bodies, so the fluid runs alone\n");
     }
     rc = 0;

@@ -1,6 +1,7 @@
 /* main.c — the `coupler` command line (DESIGN section 3).
  *
  *   coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]
+ *                 [--exchange-every K] [--log-fmi-calls FILE] [--fluid-fmu F] [--rigid-fmu F]
  *   coupler check SCENE.yaml [--set KEY=VALUE]...
  *   coupler bench [--size N]... [--json]
  *   coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...
@@ -30,6 +31,7 @@ static int usage(const char *msg)
     }
     fprintf(stderr, "usage:\n"
                     "  coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]\n"
+                    "                [--exchange-every K] [--log-fmi-calls FILE] [--fluid-fmu F] [--rigid-fmu F]\n"
                     "  coupler check SCENE.yaml [--set KEY=VALUE]...\n"
                     "  coupler bench [--size N]... [--json]\n"
                     "  coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...\n");
@@ -145,9 +147,11 @@ int main(int argc, char **argv)
         return usage(NULL);
     }
     const char *scene_path = NULL, *output = NULL, *export_dir = NULL;
+    const char *log_calls = NULL, *fluid_fmu = NULL, *rigid_fmu = NULL;
     const char *sets[MAX_SETS];
     int nsets = 0, quiet = 0;
-    long steps = 0;
+    long steps = 0, every = 1;
+    double checkpoint = 0.0;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
         const int has_value = i + 1 < argc;
@@ -160,6 +164,25 @@ int main(int argc, char **argv)
             output = argv[++i];
         } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--steps") == 0 && has_value) {
             if (!parse_long("--steps", argv[++i], 0, LONG_MAX / 2, &steps)) {
+                return 2;
+            }
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--exchange-every") == 0 && has_value) {
+            if (!parse_long("--exchange-every", argv[++i], 1, 1000000, &every)) {
+                return 2;
+            }
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--log-fmi-calls") == 0 && has_value) {
+            log_calls = argv[++i];
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--fluid-fmu") == 0 && has_value) {
+            fluid_fmu = argv[++i];
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--rigid-fmu") == 0 && has_value) {
+            rigid_fmu = argv[++i];
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--checkpoint-test") == 0 && has_value) {
+            /* hidden: save the FMU states at T1, run, restore, run again, compare */
+            char *end;
+            errno = 0;
+            checkpoint = strtod(argv[++i], &end);
+            if (errno != 0 || end == argv[i] || *end != '\0' || !(checkpoint > 0.0)) {
+                fprintf(stderr, "coupler: --checkpoint-test takes a time > 0 in s, got '%s'\n", argv[i]);
                 return 2;
             }
         } else if (strcmp(cmd, "export") == 0 && strcmp(a, "-d") == 0 && has_value) {
@@ -195,14 +218,16 @@ int main(int argc, char **argv)
     } else if (strcmp(cmd, "export") == 0) {
         char lib_dir[4096];
         fmu_lib_dir(lib_dir, sizeof lib_dir);
-        rc = export_fmus(scene, export_dir, lib_dir, &log);
+        rc = export_fmus(scene, export_dir, lib_dir, 1, &log);
     } else {
         char buf[4096];
         if (output == NULL) {
             default_output(scene_path, buf, sizeof buf);
             output = buf;
         }
-        run_options_t opt = {output, steps, quiet};
+        char lib_dir[4096];
+        fmu_lib_dir(lib_dir, sizeof lib_dir);
+        run_options_t opt = {output, steps, quiet, (int)every, log_calls, fluid_fmu, rigid_fmu, lib_dir, checkpoint};
         rc = run_scene(scene, &opt, &log);
     }
     scene_free(scene);

@@ -1,10 +1,20 @@
-/* output.h — the HDF5 result file (DESIGN section 5) and its XDMF companion.
+/* output.h — the HDF5 result file of `coupler run` (DESIGN section 5).
  *
- * Time series are extendible chunked datasets, one row per output step,
- * flushed at every output step so that a killed run leaves a readable file
- * up to its last output. Field snapshots go to /fields/NNNNNN/ and are
- * listed in an .xmf file beside the .h5, rewritten after every snapshot, so
- * ParaView opens the fields at any time. hdf5.h appears only in output.c. */
+ *   /time                                             [n]        s
+ *   /spheres/{position,velocity,angular_velocity}     [n, ns, 3] m, m/s, rad/s
+ *   /spheres/{force,torque}                           [n, ns, 3] N, N m (hydrodynamic)
+ *   /spheres/body                                     [n, ns]    body id (int32)
+ *   /connections/pair                                 [nc, 2]    sphere indices (int32)
+ *   /connections/{force,torque}                       [n, nc, 3] N, N m (Eq. 8, 9)
+ *   /connections/intact                               [n, nc]    1 until broken (int32)
+ *   /fluid/{mass,kinetic_energy} [n], /fluid/momentum [n, 3]     kg, J, kg m/s
+ *   /fields  an HDF5 external link to /fields of the field file written
+ *            by the fluid FMU (only when the scene asks for fields)
+ * Only what the scene needs: no /spheres without spheres, no /connections
+ * without connections, no /fields link without field output. Every dataset
+ * has a `unit` attribute. Time series are extendible chunked datasets, one
+ * row per output step, flushed at every row so that a killed run leaves a
+ * readable file up to its last output. hdf5.h appears only in output.c. */
 #ifndef COUPLER_OUTPUT_H
 #define COUPLER_OUTPUT_H
 
@@ -14,17 +24,32 @@
 
 typedef struct output output_t;
 
-/* Checks that path can be written and creates the file with the root
- * attributes (scene text, lattice parameters, version). */
-status_t output_open(const char *path, const scene_t *scene, const units_t *units, const log_t *log,
-                     output_t **out);
-/* One row of the fluid time series (SI). */
-status_t output_fluid_row(output_t *o, double time, double mass, const double momentum[3], double kinetic_energy);
-/* A field snapshot: density (kg/m^3), velocity (m/s, 3 per cell), flags; x fastest. */
-status_t output_fields(output_t *o, long step, double time, const double *density, const double *velocity,
-                       const unsigned char *flags);
-/* A named double attribute on the root (wall times, results). */
+typedef struct {
+    int ns;                  /* spheres (0: no /spheres) */
+    int nc;                  /* connections (0: no /connections) */
+    const int *pairs;        /* [nc][2] */
+    const char *fields_file; /* NULL: no /fields; else the field file (its name relative to the output's folder) */
+} output_layout_t;
+
+/* One output row, SI; arrays of ns*3, ns, nc*3 and nc values (NULL when the
+ * count is 0). */
+typedef struct {
+    double time;
+    const double *position, *velocity, *angular_velocity, *force, *torque;
+    const int *body;
+    const double *conn_force, *conn_torque;
+    const int *intact;
+    double mass, momentum[3], kinetic_energy;
+} output_row_t;
+
+/* Creates the file (truncating) with the root attributes: scene text and
+ * file, lattice parameters dx, dt, tau, grid, integrator, ranks, version. */
+status_t output_open(const char *path, const scene_t *scene, const units_t *units, const output_layout_t *layout,
+                     const log_t *log, output_t **out);
+status_t output_row(output_t *o, const output_row_t *row);
+/* Root attributes (wall times, results, FMI call counts). */
 status_t output_attr(output_t *o, const char *name, double value);
+status_t output_attr_string(output_t *o, const char *name, const char *value);
 /* Flushes and closes; o is freed even on error. */
 status_t output_close(output_t *o);
 

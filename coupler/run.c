@@ -1,73 +1,431 @@
-/* run.c — the coupling loop of `coupler run`.
+/* run.c — the co-simulation master of `coupler run` (DESIGN section 2).
  *
- * For a fluid-only scene the loop is: fluid step, and at each output time a
- * row of fluid diagnostics (mass, momentum, kinetic energy) and, when asked
- * for, a field snapshot; a numerical-trouble check runs every CHECK_EVERY
- * steps and at every output. Output times are t0 + k * output_interval,
- * reached when the step counter passes them (no accumulated round-off). */
+ * Setup, in an order that leaves existing files untouched on any error:
+ *   1. FMUs: exported from the scene into a temporary folder (export.c), or
+ *      the .fmu files / unpacked folders given with --fluid-fmu/--rigid-fmu;
+ *      each is unpacked, described (modelDescription.xml) and dlopen'ed
+ *      (fmu.c). The rigid FMU exists only when the scene has free bodies.
+ *   2. Signals: every input of one FMU is connected to the output of the
+ *      other with the same name; a missing partner or a different type or
+ *      unit is an error. Observed outputs (per sphere kinematics and loads,
+ *      connection loads, fluid totals) are found by name in either FMU.
+ *   3. The FMUs must have been exported from this scene (GUID check), the
+ *      output folder must be writable; then the FMUs are initialised and the
+ *      output file is created.
+ * Loop, per communication step n (h = K LBM steps, t = t0 + n h from the
+ * step counter, never accumulated):
+ *   rigid kinematics -> fluid inputs; fluid fmi2DoStep(t, h);
+ *   fluid forces/torques -> rigid inputs; rigid fmi2DoStep(t, h)
+ * (the rigid sub-cycles internally, rigid.substeps). Output rows at t >=
+ * k * run.output_interval and at the end. Every FMI status is checked; an
+ * error stops the run with the output file holding every row written. */
+#define _XOPEN_SOURCE 700 /* nftw, mkdtemp */
 #include "run.h"
 
-#include "../fluid/fluid.h"
-#include "../fluid/lattice.h"
+#include "../common/fmi_adapter.h"
+#include "../fluid/units.h"
+#include "export.h"
+#include "fmu.h"
 #include "output.h"
 
+#include <errno.h>
+#include <ftw.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
-#define CHECK_EVERY 200
-#define MACH_LIMIT 0.5
+#define CAT "run"
+#define PI 3.14159265358979323846
+
+/* Quantities of one output row, in the order of the row buffer. */
+enum { R_POS, R_VEL, R_OMEGA, R_FORCE, R_TORQUE, NSPHERE_Q };
+static const char *const SPHERE_Q[NSPHERE_Q] = {"position", "velocity", "angular_velocity", "force", "torque"};
+static const char *const AXIS = "xyz";
+
+/* Values read from one FMU in one call: vr[k] goes to row[dest[k]]. */
+typedef struct {
+    unsigned *vr;
+    int *dest;
+    int n;
+    double *tmp;
+    int *itmp;
+} gather_t;
 
 typedef struct {
-    double *rho, *u;
-    unsigned char *flags;
-    size_t n;
-} fields_t;
+    const scene_t *scene;
+    const run_options_t *opt;
+    log_t log;
+    units_t un;
+    int ns, nc, nfree_bodies;
+    fmu_t *fluid, *rigid;
+    FILE *calls;
+    char tmp[4096];   /* temporary folder, "" when none */
+    char fields[4096]; /* field file, "" when none */
+    /* exchange: rigid outputs -> fluid inputs, fluid outputs -> rigid inputs */
+    unsigned *to_fluid_src, *to_fluid_dst, *to_rigid_src, *to_rigid_dst;
+    int nto_fluid, nto_rigid;
+    double *xbuf;
+    /* observation: the row buffer and what fills it */
+    double *row;  /* 5 * ns * 3 + 2 * nc * 3 + 8 doubles */
+    int *ibody, *iintact;
+    int o_cforce, o_ctorque, o_mass, o_mom, o_ke, o_vmax, o_peak, nrow;
+    gather_t real_fluid, real_rigid, int_rigid, bool_rigid;
+    /* settling summary: the velocity along gravity of the one free sphere */
+    double *settle_t, *settle_v;
+    long nsettle;
+} master_t;
 
-/* Totals over the fluid cells of fields already in SI units. */
-static void summarize_fields(const fields_t *f, const units_t *un, double *mass, double mom[3], double *ke,
-                             double *umax)
+/* ------------------------------------------------------------------------ */
+/* Setup helpers                                                             */
+
+static int rm_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
 {
-    const double cell = un->dx * un->dx * un->dx;
-    double m = 0.0, jx = 0.0, jy = 0.0, jz = 0.0, e = 0.0, vmax = 0.0;
-    for (size_t i = 0; i < f->n; i++) {
-        if (f->flags[i] != 0) {
+    (void)sb, (void)flag, (void)ftw;
+    return remove(path) != 0 ? -1 : 0;
+}
+
+static int nfree_bodies(const scene_t *s)
+{
+    int n = 0;
+    for (int b = 0; b < s->nbodies; b++) {
+        n += s->bodies[b].motion == MOTION_FREE;
+    }
+    return n;
+}
+
+static int same_unit(const char *a, const char *b)
+{
+    return (a == NULL && b == NULL) || (a != NULL && b != NULL && strcmp(a, b) == 0);
+}
+
+static const char *type_text(fmu_type_t t)
+{
+    return t == FMU_REAL ? "Real" : t == FMU_INTEGER ? "Integer" : t == FMU_BOOLEAN ? "Boolean" : "String";
+}
+
+/* Every input of `to` gets the output of `from` with the same name. */
+static status_t connect(master_t *m, fmu_t *from, fmu_t *to, unsigned **src, unsigned **dst, int *n)
+{
+    const int nv = fmu_nvars(to);
+    *src = calloc((size_t)nv + 1, sizeof **src);
+    *dst = calloc((size_t)nv + 1, sizeof **dst);
+    if (*src == NULL || *dst == NULL) {
+        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+    }
+    status_t st = STATUS_OK;
+    for (int j = 0; j < nv; j++) {
+        const fmu_var_t *in = fmu_var(to, j);
+        if (in->causality != FMU_INPUT) {
             continue;
         }
-        const double r = f->rho[i];
-        const double ux = f->u[3 * i], uy = f->u[3 * i + 1], uz = f->u[3 * i + 2];
-        const double uu = ux * ux + uy * uy + uz * uz;
-        m += r * cell;
-        jx += r * ux * cell;
-        jy += r * uy * cell;
-        jz += r * uz * cell;
-        e += 0.5 * r * uu * cell;
-        vmax = fmax(vmax, sqrt(uu));
+        const fmu_var_t *out = from != NULL ? fmu_find(from, in->name) : NULL;
+        if (out == NULL || out->causality != FMU_OUTPUT) {
+            st = log_msg(&m->log, STATUS_ERROR, CAT, "signal mismatch: input %s of %s has no output of that name in %s",
+                         in->name, fmu_label(to), from != NULL ? fmu_label(from) : "any FMU (the scene has no rigid.fmu)");
+            continue;
+        }
+        if (out->type != in->type || in->type != FMU_REAL || !same_unit(in->unit, out->unit)) {
+            st = log_msg(&m->log, STATUS_ERROR, CAT,
+                         "signal mismatch: %s is %s [%s] in %s but %s [%s] in %s", in->name, type_text(in->type),
+                         in->unit != NULL ? in->unit : "no unit", fmu_label(to), type_text(out->type),
+                         out->unit != NULL ? out->unit : "no unit", fmu_label(from));
+            continue;
+        }
+        (*src)[*n] = out->vr;
+        (*dst)[*n] = in->vr;
+        (*n)++;
     }
-    *mass = m;
-    mom[0] = jx;
-    mom[1] = jy;
-    mom[2] = jz;
-    *ke = e;
-    *umax = vmax;
+    return st;
 }
 
-static void to_si(fields_t *f, const units_t *un)
+static status_t gather_add(master_t *m, gather_t *g, unsigned vr, int dest)
 {
-    const double uv = units_velocity(un);
-    for (size_t i = 0; i < f->n; i++) {
-        f->rho[i] *= un->rho0;
-        for (int a = 0; a < 3; a++) {
-            f->u[3 * i + a] *= uv;
+    if (g->n % 64 == 0) {
+        unsigned *v = realloc(g->vr, sizeof *v * (size_t)(g->n + 64));
+        int *d = v != NULL ? realloc(g->dest, sizeof *d * (size_t)(g->n + 64)) : NULL;
+        if (v != NULL) {
+            g->vr = v;
+        }
+        if (d == NULL) {
+            return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+        }
+        g->dest = d;
+    }
+    g->vr[g->n] = vr;
+    g->dest[g->n] = dest;
+    g->n++;
+    return STATUS_OK;
+}
+
+/* Finds an output by name in the fluid or the rigid FMU. */
+static status_t observe(master_t *m, const char *name, fmu_type_t type, int dest, int required)
+{
+    fmu_t *owners[2] = {m->fluid, m->rigid};
+    for (int k = 0; k < 2; k++) {
+        const fmu_var_t *v = owners[k] != NULL ? fmu_find(owners[k], name) : NULL;
+        if (v == NULL || v->causality != FMU_OUTPUT) {
+            continue;
+        }
+        if (v->type != type) {
+            return log_msg(&m->log, STATUS_ERROR, CAT, "%s of %s is %s; the master expects %s", name,
+                           fmu_label(owners[k]), type_text(v->type), type_text(type));
+        }
+        gather_t *g = type == FMU_REAL      ? (k == 0 ? &m->real_fluid : &m->real_rigid)
+                      : type == FMU_INTEGER ? &m->int_rigid
+                                            : &m->bool_rigid;
+        if (type != FMU_REAL && k == 0) {
+            return log_msg(&m->log, STATUS_ERROR, CAT, "%s: the master reads it from rigid.fmu only", name);
+        }
+        return gather_add(m, g, v->vr, dest);
+    }
+    if (!required) {
+        return STATUS_DISCARD;
+    }
+    return log_msg(&m->log, STATUS_ERROR, CAT, "no FMU publishes the output %s that the output file needs", name);
+}
+
+static status_t plan_observation(master_t *m)
+{
+    const int ns = m->ns, nc = m->nc;
+    m->o_cforce = NSPHERE_Q * 3 * ns;
+    m->o_ctorque = m->o_cforce + 3 * nc;
+    m->o_mass = m->o_ctorque + 3 * nc;
+    m->o_mom = m->o_mass + 1;
+    m->o_ke = m->o_mom + 3;
+    m->o_vmax = m->o_ke + 1;
+    m->o_peak = m->o_vmax + 1;
+    m->nrow = m->o_peak + 3;
+    m->row = calloc((size_t)m->nrow, sizeof(double));
+    m->ibody = calloc((size_t)ns + 1, sizeof(int));
+    m->iintact = calloc((size_t)nc + 1, sizeof(int));
+    if (m->row == NULL || m->ibody == NULL || m->iintact == NULL) {
+        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+    }
+    status_t st = STATUS_OK;
+    char name[128];
+    for (int i = 0; i < ns && st == STATUS_OK; i++) {
+        for (int q = 0; q < NSPHERE_Q && st == STATUS_OK; q++) {
+            for (int a = 0; a < 3 && st == STATUS_OK; a++) {
+                snprintf(name, sizeof name, "sphere[%d].%s.%c", i, SPHERE_Q[q], AXIS[a]);
+                st = observe(m, name, FMU_REAL, q * 3 * ns + 3 * i + a, 1);
+            }
         }
     }
+    /* body ids: the rigid publishes them for its spheres; the others keep
+     * their scene body index */
+    for (int b = 0, i = 0; b < m->scene->nbodies && st == STATUS_OK; b++) {
+        for (int k = 0; k < m->scene->bodies[b].nspheres && st == STATUS_OK; k++, i++) {
+            m->ibody[i] = b;
+            snprintf(name, sizeof name, "sphere[%d].body", i);
+            st = observe(m, name, FMU_INTEGER, i, 0);
+            st = st == STATUS_DISCARD ? STATUS_OK : st;
+        }
+    }
+    for (int k = 0; k < nc && st == STATUS_OK; k++) {
+        for (int a = 0; a < 3 && st == STATUS_OK; a++) {
+            snprintf(name, sizeof name, "connection[%d].force.%c", k, AXIS[a]);
+            st = observe(m, name, FMU_REAL, m->o_cforce + 3 * k + a, 1);
+            snprintf(name, sizeof name, "connection[%d].torque.%c", k, AXIS[a]);
+            st = status_worst(st, observe(m, name, FMU_REAL, m->o_ctorque + 3 * k + a, 1));
+        }
+        snprintf(name, sizeof name, "connection[%d].intact", k);
+        st = status_worst(st, observe(m, name, FMU_BOOLEAN, k, 1));
+    }
+    static const struct {
+        const char *name;
+        int vector;
+    } diag[] = {{"fluid.mass", 0}, {"fluid.momentum", 1}, {"fluid.kinetic_energy", 0}, {"fluid.max_speed", 0},
+                {"fluid.peak_velocity", 1}};
+    const int offs[] = {m->o_mass, m->o_mom, m->o_ke, m->o_vmax, m->o_peak};
+    for (int d = 0; d < 5 && st == STATUS_OK; d++) {
+        for (int a = 0; a < (diag[d].vector ? 3 : 1) && st == STATUS_OK; a++) {
+            if (diag[d].vector) {
+                snprintf(name, sizeof name, "%s.%c", diag[d].name, AXIS[a]);
+            } else {
+                snprintf(name, sizeof name, "%s", diag[d].name);
+            }
+            st = observe(m, name, FMU_REAL, offs[d] + a, 1);
+        }
+    }
+    gather_t *gs[4] = {&m->real_fluid, &m->real_rigid, &m->int_rigid, &m->bool_rigid};
+    for (int k = 0; k < 4 && st == STATUS_OK; k++) {
+        gs[k]->tmp = calloc((size_t)gs[k]->n + 1, sizeof(double));
+        gs[k]->itmp = calloc((size_t)gs[k]->n + 1, sizeof(int));
+        if (gs[k]->tmp == NULL || gs[k]->itmp == NULL) {
+            st = log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+        }
+    }
+    return st;
 }
 
-/* Plane Poiseuille check for a body-force channel: walls on exactly one axis,
- * force along another. Prints the analytic peak next to the measured one. */
-static void poiseuille_summary(const scene_t *s, const units_t *un, const fields_t *f)
+/* Reads every observed output into the row buffer. */
+static status_t read_row(master_t *m)
+{
+    status_t st = STATUS_OK;
+    gather_t *g = &m->real_fluid;
+    if (g->n > 0 && (st = fmu_get_real(m->fluid, g->vr, (size_t)g->n, g->tmp)) >= STATUS_ERROR) {
+        return st;
+    }
+    for (int k = 0; k < g->n; k++) {
+        m->row[g->dest[k]] = g->tmp[k];
+    }
+    if (m->rigid == NULL) {
+        return st;
+    }
+    g = &m->real_rigid;
+    if (g->n > 0 && (st = fmu_get_real(m->rigid, g->vr, (size_t)g->n, g->tmp)) >= STATUS_ERROR) {
+        return st;
+    }
+    for (int k = 0; k < g->n; k++) {
+        m->row[g->dest[k]] = g->tmp[k];
+    }
+    g = &m->int_rigid;
+    if (g->n > 0 && (st = fmu_get_integer(m->rigid, g->vr, (size_t)g->n, g->itmp)) >= STATUS_ERROR) {
+        return st;
+    }
+    for (int k = 0; k < g->n; k++) {
+        m->ibody[g->dest[k]] = g->itmp[k];
+    }
+    g = &m->bool_rigid;
+    if (g->n > 0 && (st = fmu_get_boolean(m->rigid, g->vr, (size_t)g->n, g->itmp)) >= STATUS_ERROR) {
+        return st;
+    }
+    for (int k = 0; k < g->n; k++) {
+        m->iintact[g->dest[k]] = g->itmp[k] != 0;
+    }
+    return st;
+}
+
+static status_t write_row(master_t *m, output_t *out, double t)
+{
+    const int ns = m->ns;
+    const double *r = m->row;
+    output_row_t row = {
+        .time = t,
+        .position = r + R_POS * 3 * ns,
+        .velocity = r + R_VEL * 3 * ns,
+        .angular_velocity = r + R_OMEGA * 3 * ns,
+        .force = r + R_FORCE * 3 * ns,
+        .torque = r + R_TORQUE * 3 * ns,
+        .body = m->ibody,
+        .conn_force = r + m->o_cforce,
+        .conn_torque = r + m->o_ctorque,
+        .intact = m->iintact,
+        .mass = r[m->o_mass],
+        .momentum = {r[m->o_mom], r[m->o_mom + 1], r[m->o_mom + 2]},
+        .kinetic_energy = r[m->o_ke],
+    };
+    return output_row(out, &row);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Stepping                                                                  */
+
+static status_t exchange(master_t *m, fmu_t *from, fmu_t *to, const unsigned *src, const unsigned *dst, int n)
+{
+    if (n == 0) {
+        return STATUS_OK;
+    }
+    status_t st = fmu_get_real(from, src, (size_t)n, m->xbuf);
+    return st >= STATUS_ERROR ? st : status_worst(st, fmu_set_real(to, dst, (size_t)n, m->xbuf));
+}
+
+/* One communication step from t: the sequential scheme. */
+static status_t cosim_step(master_t *m, double t, double h)
+{
+    status_t st = STATUS_OK;
+    if (m->rigid != NULL && (st = exchange(m, m->rigid, m->fluid, m->to_fluid_src, m->to_fluid_dst,
+                                           m->nto_fluid)) >= STATUS_ERROR) {
+        return st;
+    }
+    if ((st = status_worst(st, fmu_do_step(m->fluid, t, h))) >= STATUS_ERROR) {
+        return st;
+    }
+    if (m->rigid == NULL) {
+        return st;
+    }
+    if ((st = status_worst(st, exchange(m, m->fluid, m->rigid, m->to_rigid_src, m->to_rigid_dst, m->nto_rigid))) >=
+        STATUS_ERROR) {
+        return st;
+    }
+    return status_worst(st, fmu_do_step(m->rigid, t, h));
+}
+
+/* ------------------------------------------------------------------------ */
+/* Summary                                                                   */
+
+/* Hasimoto (1959) drag factor of a simple cubic array, a = radius, L = period. */
+static double hasimoto(double a_over_l)
+{
+    const double x = a_over_l;
+    return 1.0 / (1.0 - 2.837 * x + 4.19 * x * x * x - 27.4 * pow(x, 6.0));
+}
+
+/* The one free body made of one sphere under gravity: index of the sphere, or -1. */
+static int settling_sphere(const scene_t *s)
+{
+    int found = -1, nfree = 0;
+    for (int b = 0, i = 0; b < s->nbodies; b++) {
+        if (s->bodies[b].motion == MOTION_FREE) {
+            nfree++;
+            found = s->bodies[b].nspheres == 1 ? i : -2;
+        }
+        i += s->bodies[b].nspheres;
+    }
+    const double g = hypot(hypot(s->rigid.gravity[0], s->rigid.gravity[1]), s->rigid.gravity[2]);
+    return nfree == 1 && found >= 0 && g > 0.0 ? found : -1;
+}
+
+static void settling_summary(master_t *m, double t_end)
+{
+    const scene_t *s = m->scene;
+    const int i = settling_sphere(s);
+    if (i < 0 || m->nsettle == 0) {
+        return;
+    }
+    const scene_body_t *body = NULL;
+    for (int b = 0, k = 0; b < s->nbodies && body == NULL; b++) {
+        body = k == i ? &s->bodies[b] : NULL;
+        k += s->bodies[b].nspheres;
+    }
+    const double a = body->spheres[0].radius, rho_f = s->fluid.density, mu = rho_f * s->fluid.viscosity;
+    const double g = hypot(hypot(s->rigid.gravity[0], s->rigid.gravity[1]), s->rigid.gravity[2]);
+    const double stokes = 2.0 * g * a * a * (body->density - rho_f) / (9.0 * mu); /* the paper's Eq. 10 */
+    double sum = 0.0;
+    long n = 0;
+    for (long k = 0; k < m->nsettle; k++) {
+        if (m->settle_t[k] >= 0.8 * t_end - 1e-12 * t_end) {
+            sum += m->settle_v[k];
+            n++;
+        }
+    }
+    const double v = n > 0 ? sum / n : 0.0;
+    printf("  settling: terminal velocity %.4g m/s (mean over the last 20%% of the run, %ld rows), "
+           "Stokes (Eq. 10) %.4g m/s, Re = %.3g\n",
+           v, n, stokes, v * 2.0 * a / s->fluid.viscosity);
+    int free_slip = 1;
+    double lmin = INFINITY;
+    for (int f = 0; f < 6; f++) {
+        free_slip &= s->domain.faces[f].type == FACE_FREE_SLIP;
+        lmin = fmin(lmin, s->domain.size[f / 2]);
+    }
+    if (free_slip) {
+        /* A free-slip wall is a mirror: for a sphere in the middle of a box
+         * of side L its images in the side walls form a square array of
+         * period L. The wall-corrected estimate treats the whole image system
+         * as a simple cubic array of period L: Hasimoto (1959), dilute
+         * periodic array of spheres, v = v_Stokes / K(a/L). */
+        const double k = hasimoto(a / lmin);
+        printf("  wall-corrected estimate %.4g m/s (free-slip walls as mirror images, a periodic array of period "
+               "L = %.4g m: Hasimoto 1959 K = %.4f for a/L = %.4g); measured / corrected = %.4f\n",
+               stokes / k, lmin, k, a / lmin, v / (stokes / k));
+    }
+}
+
+static void poiseuille_summary(const scene_t *s, const units_t *un, const double peak[3])
 {
     int wall = -1, nwalls = 0, along = -1;
     for (int a = 0; a < 3; a++) {
@@ -81,128 +439,481 @@ static void poiseuille_summary(const scene_t *s, const units_t *un, const fields
             along = along < 0 ? a : 3;
         }
     }
-    if (nwalls != 1 || along < 0 || along == 3 || along == wall) {
+    if (nwalls != 1 || along < 0 || along == 3 || along == wall || s->nbodies > 0) {
         return;
     }
     const double h = s->domain.size[wall], mu = s->fluid.viscosity * s->fluid.density, dx = un->dx;
-    const int nh = un->n[wall];
     /* the analytic profile F/(2 mu) y (h - y) at the cell centre nearest the middle */
-    const double y = (nh / 2 + 0.5) * dx;
-    const double peak = s->fluid.body_force[along] / (2.0 * mu) * y * (h - y);
-    double best = 0.0;
-    for (size_t i = 0; i < f->n; i++) {
-        if (fabs(f->u[3 * i + along]) > fabs(best)) {
-            best = f->u[3 * i + along];
-        }
-    }
+    const double y = (un->n[wall] / 2 + 0.5) * dx;
+    const double ref = s->fluid.body_force[along] / (2.0 * mu) * y * (h - y);
     printf("  plane Poiseuille check: peak velocity %.6g m/s, analytic %.6g m/s at the same cell centre "
            "(relative difference %.2e)\n",
-           best, peak, best / peak - 1.0);
+           peak[along], ref, peak[along] / ref - 1.0);
+}
+
+static void calls_json(const fmu_t *f, char *buf, size_t n)
+{
+    size_t k = (size_t)snprintf(buf, n, "{");
+    for (int c = 0; c < FMU_NCALLS && k < n; c++) {
+        if (fmu_calls(f, c) > 0) {
+            k += (size_t)snprintf(buf + k, n - k, "%s\"%s\": %ld", k > 1 ? ", " : "", fmu_call_names[c],
+                                  fmu_calls(f, c));
+        }
+    }
+    if (k < n) {
+        snprintf(buf + k, n - k, "}");
+    }
+}
+
+/* Final velocity of every free body: the r^3-weighted mean of its spheres'
+ * velocities (the centre-of-mass velocity of a rigid body of one density). */
+static void body_summary(const master_t *m)
+{
+    const scene_t *s = m->scene;
+    const int ns = m->ns;
+    for (int i = 0, b0 = 0, k0 = 0; i < ns; i++) {
+        /* the scene sphere i: is its body free? */
+        while (k0 + s->bodies[b0].nspheres <= i) {
+            k0 += s->bodies[b0].nspheres;
+            b0++;
+        }
+        int first = 1;
+        for (int j = 0; j < i; j++) {
+            first &= m->ibody[j] != m->ibody[i];
+        }
+        if (!first || s->bodies[b0].motion != MOTION_FREE) {
+            continue;
+        }
+        double v[3] = {0, 0, 0}, w = 0.0;
+        int count = 0;
+        for (int j = i, b = b0, k = k0; j < ns; j++) {
+            while (k + s->bodies[b].nspheres <= j) {
+                k += s->bodies[b].nspheres;
+                b++;
+            }
+            if (m->ibody[j] != m->ibody[i]) {
+                continue;
+            }
+            const double r3 = pow(s->bodies[b].spheres[j - k].radius, 3.0);
+            for (int a = 0; a < 3; a++) {
+                v[a] += r3 * m->row[R_VEL * 3 * ns + 3 * j + a];
+            }
+            w += r3;
+            count++;
+        }
+        printf("  body %d (%d sphere%s from sphere %d): final velocity (%.6g, %.6g, %.6g) m/s\n", m->ibody[i], count,
+               count > 1 ? "s" : "", i, v[0] / w, v[1] / w, v[2] / w);
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* The run                                                                   */
+
+static status_t check_writable(const char *path, const log_t *log)
+{
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (slash == NULL) {
+        snprintf(dir, sizeof dir, ".");
+    } else if (slash == dir) {
+        dir[1] = '\0';
+    } else {
+        *slash = '\0';
+    }
+    if (access(dir, W_OK | X_OK) != 0) {
+        return log_msg(log, STATUS_ERROR, CAT, "cannot write the output file %s: folder %s: %s", path, dir,
+                       strerror(errno));
+    }
+    if (access(path, F_OK) == 0 && access(path, W_OK) != 0) {
+        return log_msg(log, STATUS_ERROR, CAT, "cannot write the output file %s: %s", path, strerror(errno));
+    }
+    return STATUS_OK;
+}
+
+static status_t load_fmus(master_t *m)
+{
+    const run_options_t *opt = m->opt;
+    char export_dir[4200], fluid_path[4300], rigid_path[4300];
+    const char *tmpdir = getenv("TMPDIR") != NULL && getenv("TMPDIR")[0] != '\0' ? getenv("TMPDIR") : "/tmp";
+    snprintf(m->tmp, sizeof m->tmp, "%s/coupler-XXXXXX", tmpdir);
+    if (mkdtemp(m->tmp) == NULL) {
+        const status_t st = log_msg(&m->log, STATUS_ERROR, CAT, "cannot create a temporary folder in %s: %s", tmpdir,
+                                    strerror(errno));
+        m->tmp[0] = '\0';
+        return st;
+    }
+    snprintf(export_dir, sizeof export_dir, "%s/export", m->tmp);
+    const int need_rigid = m->nfree_bodies > 0;
+    if ((opt->fluid_fmu == NULL || (need_rigid && opt->rigid_fmu == NULL)) &&
+        export_fmus(m->scene, export_dir, opt->lib_dir, 0, &m->log) != 0) {
+        return log_msg(&m->log, STATUS_ERROR, CAT, "cannot export the FMUs of %s (see above)", m->scene->path);
+    }
+    snprintf(fluid_path, sizeof fluid_path, "%s", opt->fluid_fmu != NULL ? opt->fluid_fmu : export_dir);
+    if (opt->fluid_fmu == NULL) {
+        strcat(fluid_path, "/fluid.fmu");
+    }
+    status_t st = fmu_load(fluid_path, m->tmp, "fluid.fmu", m->calls, &m->log, &m->fluid);
+    if (st >= STATUS_ERROR) {
+        return st;
+    }
+    if (!need_rigid) {
+        if (opt->rigid_fmu != NULL) {
+            log_msg(&m->log, STATUS_WARNING, CAT, "%s has no free bodies: the fluid runs alone, --rigid-fmu %s is not used",
+                    m->scene->path, opt->rigid_fmu);
+        }
+        return STATUS_OK;
+    }
+    snprintf(rigid_path, sizeof rigid_path, "%s", opt->rigid_fmu != NULL ? opt->rigid_fmu : export_dir);
+    if (opt->rigid_fmu == NULL) {
+        strcat(rigid_path, "/rigid.fmu");
+    }
+    return fmu_load(rigid_path, m->tmp, "rigid.fmu", m->calls, &m->log, &m->rigid);
+}
+
+/* The FMUs must carry this scene: their GUID is a hash of its text. */
+static status_t check_guid(master_t *m, fmu_t *f)
+{
+    char guid[39];
+    fmi_guid(fmu_identifier(f), m->scene->text, strlen(m->scene->text), guid);
+    if (strcmp(guid, fmu_guid(f)) != 0) {
+        return log_msg(&m->log, STATUS_ERROR, CAT,
+                       "%s was exported from another scene (GUID %s; %s with these --set options gives %s): export it "
+                       "again with `coupler export`",
+                       fmu_label(f), fmu_guid(f), m->scene->path, guid);
+    }
+    return STATUS_OK;
+}
+
+static status_t init_fmus(master_t *m, double t_stop)
+{
+    status_t st = fmu_instantiate(m->fluid, 0.0, t_stop);
+    const fmu_var_t *fields = fmu_find(m->fluid, "output.fields");
+    if (st < STATUS_ERROR && fields != NULL && m->fields[0] != '\0') {
+        st = status_worst(st, fmu_set_string(m->fluid, fields->vr, m->fields));
+    }
+    if (st < STATUS_ERROR) {
+        st = status_worst(st, fmu_exit_init(m->fluid));
+    }
+    if (st < STATUS_ERROR && m->rigid != NULL) {
+        st = status_worst(st, fmu_instantiate(m->rigid, 0.0, t_stop));
+        if (st < STATUS_ERROR) {
+            st = status_worst(st, fmu_exit_init(m->rigid));
+        }
+    }
+    return st;
+}
+
+static void free_master(master_t *m)
+{
+    fmu_free(m->rigid);
+    fmu_free(m->fluid);
+    if (m->calls != NULL && fclose(m->calls) != 0) {
+        log_msg(&m->log, STATUS_WARNING, CAT, "%s: error while closing the FMI call log", m->opt->log_calls);
+    }
+    if (m->tmp[0] != '\0') {
+        nftw(m->tmp, rm_entry, 16, FTW_DEPTH | FTW_PHYS);
+    }
+    gather_t *gs[4] = {&m->real_fluid, &m->real_rigid, &m->int_rigid, &m->bool_rigid};
+    for (int k = 0; k < 4; k++) {
+        free(gs[k]->vr);
+        free(gs[k]->dest);
+        free(gs[k]->tmp);
+        free(gs[k]->itmp);
+    }
+    free(m->to_fluid_src);
+    free(m->to_fluid_dst);
+    free(m->to_rigid_src);
+    free(m->to_rigid_dst);
+    free(m->xbuf);
+    free(m->row);
+    free(m->ibody);
+    free(m->iintact);
+    free(m->settle_t);
+    free(m->settle_v);
+}
+
+/* The checkpoint test: the states saved at step n1, the rows after it. */
+typedef struct {
+    long n1;
+    void *fluid_state, *rigid_state;
+    double *rows; /* (n - n1 + 1) rows of nrow doubles + ns + nc ints as doubles */
+    long nrows, cap;
+    int replay;
+    long mismatches;
+} checkpoint_t;
+
+static status_t checkpoint_record(master_t *m, checkpoint_t *c, long n)
+{
+    const int width = m->nrow + m->ns + m->nc;
+    const long k = n - c->n1;
+    double *r;
+    if (!c->replay) {
+        if (k >= c->cap) {
+            c->cap = c->cap > 0 ? 2 * c->cap : 256;
+            double *p = realloc(c->rows, sizeof(double) * (size_t)width * (size_t)c->cap);
+            if (p == NULL) {
+                return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+            }
+            c->rows = p;
+        }
+        c->nrows = k + 1;
+    }
+    r = c->replay ? malloc(sizeof(double) * (size_t)width) : c->rows + (size_t)k * (size_t)width;
+    if (r == NULL) {
+        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+    }
+    memcpy(r, m->row, sizeof(double) * (size_t)m->nrow);
+    for (int i = 0; i < m->ns; i++) {
+        r[m->nrow + i] = m->ibody[i];
+    }
+    for (int i = 0; i < m->nc; i++) {
+        r[m->nrow + m->ns + i] = m->iintact[i];
+    }
+    if (c->replay) {
+        if (k >= c->nrows || memcmp(r, c->rows + (size_t)k * (size_t)width, sizeof(double) * (size_t)width) != 0) {
+            c->mismatches++;
+        }
+        free(r);
+    }
+    return STATUS_OK;
 }
 
 int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
 {
-    fluid_t *fl = NULL;
+    master_t m;
+    memset(&m, 0, sizeof m);
+    m.scene = scene;
+    m.opt = opt;
+    m.log = *log;
+    checkpoint_t cp = {0};
     output_t *out = NULL;
-    fields_t f = {0};
     int rc = 1;
-    if (fluid_create(scene, log, &fl) != STATUS_OK) {
-        goto done;
-    }
-    const units_t *un = fluid_units(fl);
-    int n[3];
-    fluid_cells(fl, n);
-    f.n = (size_t)n[0] * n[1] * n[2];
-    f.rho = malloc(sizeof(double) * f.n);
-    f.u = malloc(sizeof(double) * 3 * f.n);
-    f.flags = malloc(f.n);
-    if (f.rho == NULL || f.u == NULL || f.flags == NULL) {
-        log_msg(log, STATUS_ERROR, "run", "out of memory for the field buffers");
-        goto done;
-    }
-    if (output_open(opt->output, scene, un, log, &out) != STATUS_OK) {
-        goto done;
-    }
-    const long steps = opt->steps > 0 ? opt->steps : (long)ceil(scene->run.end_time / un->dt - 1e-9);
-    const double oi = scene->run.output_interval, fi = scene->run.field_interval;
-    long next_out = 0, next_field = 0; /* output counters k: times k * interval */
-    const int tty = !opt->quiet && isatty(fileno(stderr));
+    status_t st;
     const double wall0 = omp_get_wtime();
-    double last_print = wall0, fluid_wall = 0.0;
-    double mass0 = 0.0, umax = 0.0;
-    for (long step = 0;; step++) {
-        const double t = fluid_time(fl);
-        const int last = step == steps;
-        const int do_out = last || t >= next_out * oi - 1e-9 * un->dt;
-        const int do_field = scene->run.fields && (last || t >= next_field * fi - 1e-9 * un->dt);
-        if (do_out || do_field || step % CHECK_EVERY == 0) {
-            if (fluid_check(fl, MACH_LIMIT) != STATUS_OK) {
-                log_msg(log, STATUS_ERROR, "run", "stopped; %s holds the output up to t = %.6g s", opt->output,
-                        (next_out - 1) * oi);
-                goto done;
+    if (units_derive(scene, log, &m.un) != STATUS_OK) {
+        goto done;
+    }
+    m.ns = scene_total_spheres(scene);
+    m.nfree_bodies = nfree_bodies(scene);
+    m.nc = m.nfree_bodies > 0 ? scene->nconnections : 0;
+    const int k_lbm = opt->exchange_every > 0 ? opt->exchange_every : 1;
+    /* the LBM step as the FMUs' DefaultExperiment states it (scene fluid.dt),
+     * so that any master (fmpy_master.py) computes the same h */
+    const double dt = scene->fluid.dt, h = k_lbm * dt;
+    const long nsteps = opt->steps > 0 ? opt->steps : (long)ceil(scene->run.end_time / h - 1e-9);
+    const double t_end = nsteps * h;
+    if (opt->log_calls != NULL && (m.calls = fopen(opt->log_calls, "w")) == NULL) {
+        log_msg(log, STATUS_ERROR, CAT, "cannot write the FMI call log %s: %s", opt->log_calls, strerror(errno));
+        goto done;
+    }
+    /* 1-3: FMUs, signals, scene, output folder; nothing written yet */
+    if (load_fmus(&m) >= STATUS_ERROR) {
+        goto done;
+    }
+    st = connect(&m, m.rigid, m.fluid, &m.to_fluid_src, &m.to_fluid_dst, &m.nto_fluid);
+    if (m.rigid != NULL) {
+        st = status_worst(st, connect(&m, m.fluid, m.rigid, &m.to_rigid_src, &m.to_rigid_dst, &m.nto_rigid));
+    }
+    if (st >= STATUS_ERROR) {
+        log_msg(log, STATUS_ERROR, CAT, "the FMUs do not fit together (see above); nothing was run");
+        goto done;
+    }
+    if ((m.xbuf = calloc((size_t)(m.nto_fluid + m.nto_rigid) + 1, sizeof(double))) == NULL) {
+        log_msg(log, STATUS_FATAL, CAT, "out of memory");
+        goto done;
+    }
+    if (check_guid(&m, m.fluid) >= STATUS_ERROR || (m.rigid != NULL && check_guid(&m, m.rigid) >= STATUS_ERROR) ||
+        plan_observation(&m) >= STATUS_ERROR || check_writable(opt->output, log) >= STATUS_ERROR) {
+        goto done;
+    }
+    const char *fields_rel = NULL;
+    if (scene->run.fields) {
+        /* OUT_fields.h5 beside OUT.h5; the output links to it by its name */
+        snprintf(m.fields, sizeof m.fields, "%s", opt->output);
+        char *dot = strrchr(m.fields, '.'), *slash = strrchr(m.fields, '/');
+        if (dot != NULL && (slash == NULL || dot > slash)) {
+            *dot = '\0';
+        }
+        strncat(m.fields, "_fields.h5", sizeof m.fields - strlen(m.fields) - 1);
+        fields_rel = strrchr(m.fields, '/') != NULL ? strrchr(m.fields, '/') + 1 : m.fields;
+        if (check_writable(m.fields, log) >= STATUS_ERROR) {
+            goto done;
+        }
+    }
+    if (init_fmus(&m, t_end) >= STATUS_ERROR) {
+        log_msg(log, STATUS_ERROR, CAT, "the FMUs could not be initialised (see above); nothing was run");
+        goto done;
+    }
+    int *pairs = calloc(2 * (size_t)m.nc + 1, sizeof(int));
+    if (pairs == NULL) {
+        log_msg(log, STATUS_FATAL, CAT, "out of memory");
+        goto done;
+    }
+    for (int k = 0; k < m.nc; k++) {
+        pairs[2 * k] = scene->connections[k].a;
+        pairs[2 * k + 1] = scene->connections[k].b;
+    }
+    output_layout_t layout = {m.ns, m.nc, pairs, fields_rel};
+    units_t shown = m.un;
+    shown.dt = dt; /* the time base of the run (may differ from units_derive's dt in the last bit) */
+    st = output_open(opt->output, scene, &shown, &layout, log, &out);
+    free(pairs);
+    if (st >= STATUS_ERROR) {
+        goto done;
+    }
+    const int settle = settling_sphere(scene);
+    double gdir[3] = {0, 0, 0};
+    if (settle >= 0) {
+        const double g = hypot(hypot(scene->rigid.gravity[0], scene->rigid.gravity[1]), scene->rigid.gravity[2]);
+        for (int a = 0; a < 3; a++) {
+            gdir[a] = scene->rigid.gravity[a] / g;
+        }
+    }
+    cp.n1 = opt->checkpoint_t1 > 0.0 ? (long)llround(opt->checkpoint_t1 / h) : -1;
+    if (opt->checkpoint_t1 > 0.0 && (cp.n1 < 1 || cp.n1 >= nsteps)) {
+        log_msg(log, STATUS_ERROR, CAT, "--checkpoint-test %g s is not inside the run (0, %g s)", opt->checkpoint_t1,
+                t_end);
+        goto done;
+    }
+    /* the loop */
+    const double oi = scene->run.output_interval, ncells = (double)m.un.n[0] * m.un.n[1] * m.un.n[2];
+    const int tty = !opt->quiet && isatty(fileno(stderr));
+    long next_out = 0;
+    double last_print = wall0;
+    for (long n = 0;; n++) {
+        const double t = n * h;
+        const int last = n == nsteps;
+        const int do_out = !cp.replay && (last || t >= next_out * oi - 1e-9 * dt);
+        if (do_out || (cp.n1 >= 0 && n >= cp.n1)) {
+            if (read_row(&m) >= STATUS_ERROR) {
+                goto stopped;
             }
         }
-        if (do_out || do_field) {
-            fluid_moments_lattice(fl, f.rho, f.u);
-            fluid_flags(fl, f.flags);
-            to_si(&f, un);
-            double mass, mom[3], ke;
-            summarize_fields(&f, un, &mass, mom, &ke, &umax);
-            if (step == 0) {
-                mass0 = mass;
+        if (do_out) {
+            if (write_row(&m, out, t) != STATUS_OK) {
+                goto stopped;
             }
-            if (do_out && output_fluid_row(out, t, mass, mom, ke) != STATUS_OK) {
-                goto done;
+            if (settle >= 0) {
+                double *pt = realloc(m.settle_t, sizeof(double) * (size_t)(m.nsettle + 1));
+                double *pv = pt != NULL ? realloc(m.settle_v, sizeof(double) * (size_t)(m.nsettle + 1)) : NULL;
+                if (pt != NULL) {
+                    m.settle_t = pt;
+                }
+                if (pv == NULL) {
+                    log_msg(log, STATUS_FATAL, CAT, "out of memory");
+                    goto stopped;
+                }
+                m.settle_v = pv;
+                const double *v = &m.row[R_VEL * 3 * m.ns + 3 * settle];
+                m.settle_t[m.nsettle] = t;
+                m.settle_v[m.nsettle++] = v[0] * gdir[0] + v[1] * gdir[1] + v[2] * gdir[2];
             }
-            if (do_field && output_fields(out, step, t, f.rho, f.u, f.flags) != STATUS_OK) {
-                goto done;
-            }
-            while (next_out * oi <= t + 1e-9 * un->dt) {
+            while (next_out * oi <= t + 1e-9 * dt) {
                 next_out++;
             }
-            while (scene->run.fields && next_field * fi <= t + 1e-9 * un->dt) {
-                next_field++;
+        }
+        if (cp.n1 >= 0 && n >= cp.n1 && checkpoint_record(&m, &cp, n) != STATUS_OK) {
+            goto stopped;
+        }
+        if (cp.n1 >= 0 && n == cp.n1 && !cp.replay) {
+            if (fmu_get_state(m.fluid, &cp.fluid_state) >= STATUS_ERROR ||
+                (m.rigid != NULL && fmu_get_state(m.rigid, &cp.rigid_state) >= STATUS_ERROR)) {
+                goto stopped;
             }
-            if (last) {
-                printf("%s: %ld steps, t = %.6g s, %d x %d x %d cells, tau %.4g, dt %.4g s\n", scene->path, steps,
-                       t, n[0], n[1], n[2], un->tau, un->dt);
-                printf("  fluid: mass change %.3e (relative), largest speed %.6g m/s (Mach %.3g)\n",
-                       mass0 > 0 ? mass / mass0 - 1.0 : 0.0, umax, umax / units_velocity(un) * sqrt(3.0));
-                poiseuille_summary(scene, un, &f);
+        }
+        if (last && cp.n1 >= 0 && !cp.replay) {
+            /* restore the states of t1 and run to the end again */
+            if (fmu_set_state(m.fluid, cp.fluid_state) >= STATUS_ERROR ||
+                (m.rigid != NULL && fmu_set_state(m.rigid, cp.rigid_state) >= STATUS_ERROR)) {
+                goto stopped;
             }
+            cp.replay = 1;
+            n = cp.n1 - 1;
+            continue;
         }
         if (last) {
             break;
         }
-        const double w0 = omp_get_wtime();
-        fluid_step(fl);
+        if (cosim_step(&m, t, h) >= STATUS_ERROR) {
+            log_msg(log, STATUS_ERROR, CAT, "communication step %ld from t = %.9g s failed", n, t);
+            goto stopped;
+        }
         const double w1 = omp_get_wtime();
-        fluid_wall += w1 - w0;
         if (tty && (w1 - last_print > 0.5)) {
-            const double el = w1 - wall0, eta = el / (step + 1) * (steps - step - 1);
-            fprintf(stderr, "\rstep %ld/%ld  t = %.4g s  wall %.1f s  ETA %.1f s  %.1f MLUPS   ", step + 1, steps,
-                    fluid_time(fl), el, eta, (double)f.n * (step + 1) / fluid_wall / 1e6);
+            const double el = w1 - wall0, eta = el / (n + 1) * (nsteps - n - 1);
+            fprintf(stderr, "\rstep %ld/%ld  t = %.4g s  wall %.1f s  ETA %.1f s  %.1f MLUPS   ", n + 1, nsteps,
+                    t + h, el, eta, ncells * k_lbm * (n + 1) / fmax(fmu_step_seconds(m.fluid), 1e-9) / 1e6);
             last_print = w1;
         }
     }
     if (tty) {
         fprintf(stderr, "\n");
     }
-    const double wall = omp_get_wtime() - wall0;
-    printf("  wall time %.3f s (fluid %.3f s, %.1f MLUPS), output %s\n", wall, fluid_wall,
-           (double)f.n * steps / fmax(fluid_wall, 1e-9) / 1e6, opt->output);
-    if (output_attr(out, "wall_time_fluid", fluid_wall) != STATUS_OK ||
-        output_attr(out, "wall_time_total", wall) != STATUS_OK) {
+    const double wall = omp_get_wtime() - wall0, wf = fmu_step_seconds(m.fluid);
+    const double wr = m.rigid != NULL ? fmu_step_seconds(m.rigid) : 0.0;
+    char jf[1024], jr[1024] = "{}";
+    calls_json(m.fluid, jf, sizeof jf);
+    if (m.rigid != NULL) {
+        calls_json(m.rigid, jr, sizeof jr);
+    }
+    const long cf = fmu_calls_total(m.fluid), cr = m.rigid != NULL ? fmu_calls_total(m.rigid) : 0;
+    const double mlups = ncells * k_lbm * (double)nsteps / fmax(wf, 1e-9) / 1e6;
+    st = output_attr(out, "wall_time_fluid", wf);
+    st = status_worst(st, output_attr(out, "wall_time_rigid", wr));
+    st = status_worst(st, output_attr(out, "wall_time_master", wall - wf - wr));
+    st = status_worst(st, output_attr(out, "wall_time_total", wall));
+    st = status_worst(st, output_attr(out, "exchange_every", k_lbm));
+    st = status_worst(st, output_attr(out, "communication_step", h));
+    st = status_worst(st, output_attr(out, "mlups", mlups));
+    st = status_worst(st, output_attr_string(out, "fmi_calls_fluid", jf));
+    if (m.rigid != NULL) {
+        st = status_worst(st, output_attr_string(out, "fmi_calls_rigid", jr));
+    }
+    if (st != STATUS_OK) {
         goto done;
     }
+    printf("%s: %ld communication steps of %d LBM step%s (h = %.6g s), t = %.6g s, %d x %d x %d cells, tau %.4g\n",
+           scene->path, nsteps, k_lbm, k_lbm > 1 ? "s" : "", h, t_end, m.un.n[0], m.un.n[1], m.un.n[2], m.un.tau);
+    printf("  wall time %.3f s: fluid %.3f s (%.1f MLUPS), rigid %.3f s, master and output %.3f s\n", wall, wf, mlups,
+           wr, wall - wf - wr);
+    printf("  FMI calls: fluid %ld %s", cf, jf);
+    if (m.rigid != NULL) {
+        printf(", rigid %ld %s", cr, jr);
+    } else {
+        printf(" (no rigid.fmu: no free bodies)");
+    }
+    printf("\n");
+    const double vmax = m.row[m.o_vmax];
+    printf("  fluid: largest speed %.6g m/s (Mach %.3g)\n", vmax, vmax / units_velocity(&m.un) * sqrt(3.0));
+    body_summary(&m);
+    settling_summary(&m, t_end);
+    poiseuille_summary(scene, &m.un, &m.row[m.o_peak]);
+    if (cp.n1 >= 0) {
+        printf("  checkpoint test: state saved at t1 = %.6g s, run to %.6g s, restored, run again: %s (%ld of %ld "
+               "communication points differ)\n",
+               cp.n1 * h, t_end, cp.mismatches == 0 ? "bit-identical" : "DIFFERENT", cp.mismatches, cp.nrows);
+        if (cp.mismatches != 0) {
+            log_msg(log, STATUS_ERROR, CAT, "checkpoint test failed: the restored run differs");
+            goto done;
+        }
+    }
+    printf("  output %s%s%s\n", opt->output, m.fields[0] != '\0' ? ", fields " : "", m.fields);
     rc = 0;
+    goto done;
+stopped:
+    log_msg(log, STATUS_ERROR, CAT, "stopped; %s holds the output rows written so far", opt->output);
 done:
+    if (cp.fluid_state != NULL) {
+        fmu_free_state(m.fluid, &cp.fluid_state);
+    }
+    if (cp.rigid_state != NULL) {
+        fmu_free_state(m.rigid, &cp.rigid_state);
+    }
+    free(cp.rows);
     if (output_close(out) != STATUS_OK) {
         rc = 1;
     }
-    free(f.rho);
-    free(f.u);
-    free(f.flags);
-    fluid_free(fl);
+    free_master(&m);
     return rc;
 }

@@ -1,16 +1,27 @@
-/* run.h — `coupler run`: drive a scene to its end time and write the output. */
+/* run.h — `coupler run`: the FMI 2.0 co-simulation master.
+ *
+ * Loads the scene's FMUs (exported into a temporary folder, or given with
+ * --fluid-fmu/--rigid-fmu), connects every input to the output of the
+ * other FMU with the same name, steps them with the fixed-step sequential
+ * scheme of DESIGN section 2 and writes the output file (output.h). */
 #ifndef COUPLER_RUN_H
 #define COUPLER_RUN_H
 
 #include "../common/scene.h"
 
 typedef struct {
-    const char *output; /* .h5 path */
-    long steps;         /* > 0: run this many steps instead of end_time */
-    int quiet;          /* no progress line */
+    const char *output;        /* .h5 path */
+    long steps;                /* > 0: this many communication steps instead of run.end_time */
+    int quiet;                 /* no progress line */
+    int exchange_every;        /* LBM steps per communication step, >= 1 */
+    const char *log_calls;     /* NULL or a file for the FMI call log */
+    const char *fluid_fmu;     /* NULL: export from the scene */
+    const char *rigid_fmu;     /* NULL: export from the scene */
+    const char *lib_dir;       /* build/fmu: the libraries export packs */
+    double checkpoint_t1;      /* > 0: checkpoint test (save at t1, run, restore, run, compare) */
 } run_options_t;
 
-/* Returns 0 on success, non-zero on failure (messages already logged). */
+/* Returns 0 on success, 1 on failure (messages already logged). */
 int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log);
 
 #endif

@@ -9,29 +9,74 @@
  *   inputs      sphere[i].position|velocity|angular_velocity.x|y|z, only for
  *               spheres of free bodies (the fluid moves fixed and prescribed
  *               spheres itself); start values are the scene's initial state
+ *               output.fields (String, only when the scene sets run.fields):
+ *               the HDF5 file for field snapshots, "" for none
  *   outputs     sphere[i].force|torque.x|y|z for every sphere: the
  *               hydrodynamic force and the torque about the sphere centre of
  *               the last LBM step (averaged when fluid.force_averaging is set)
+ *               sphere[i].position|velocity|angular_velocity.x|y|z for the
+ *               spheres that are not inputs (fixed and prescribed bodies: the
+ *               fluid moves them, so it publishes where they are at the FMU's
+ *               time t, the scene's motion: the r^3-weighted centroid moves
+ *               with the body velocity, the centre turns about it with the
+ *               angular velocity; wrapped on periodic axes)
+ *               fluid.mass (kg), fluid.momentum.x|y|z (kg m/s),
+ *               fluid.kinetic_energy (J), fluid.max_speed (m/s),
+ *               fluid.peak_velocity.x|y|z (m/s, the signed component of
+ *               largest magnitude per axis): totals over the fluid cells,
+ *               lazy (one pass over the grid, only when a master reads them)
+ * Field snapshots (common/h5fields.h) are written by the FMU itself into
+ * output.fields: at creation, at every LBM step that reaches a multiple of
+ * run.field_interval and at run.end_time; a master cannot reach the grid
+ * through FMI. Every CHECK_EVERY LBM steps the grid is scanned for numerical
+ * trouble (NaN, non-positive density, Mach above 0.5): the step then fails
+ * with the cell and the cause.
  * A communication step h must be a whole number k of LBM steps dt (within
  * 1e-9 relative). The inputs are held over the step (zero-order hold): a
  * free sphere stays where its position input puts it for all k LBM steps,
  * with the surface velocity of its velocity inputs. */
 #include "../common/fmi_adapter.h"
+#include "../common/h5fields.h"
 #include "fluid.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
-enum { Q_POSITION, Q_VELOCITY, Q_ANGULAR_VELOCITY, Q_FORCE, Q_TORQUE, Q_PARAMETER };
+enum {
+    Q_POSITION,
+    Q_VELOCITY,
+    Q_ANGULAR_VELOCITY,
+    Q_FORCE,
+    Q_TORQUE,
+    Q_PARAMETER,
+    Q_FIELDS_FILE,
+    Q_MASS,
+    Q_MOMENTUM,
+    Q_KINETIC_ENERGY,
+    Q_MAX_SPEED,
+    Q_PEAK_VELOCITY,
+};
+
+#define CHECK_EVERY 200
+#define MACH_LIMIT 0.5
 
 static const char *const AXIS = "xyz";
 
 typedef struct {
     fluid_t *fl;
+    const scene_t *scene;   /* alive while the component is (adapter) */
     int ns;
     double *kin;            /* per sphere: c[3], v[3], w[3] */
     unsigned char *is_free; /* per sphere: set from inputs */
+    size_t ncells;
+    double *rho, *u;        /* SI moments of every interior cell, for diagnostics and fields */
+    unsigned char *flags;
+    h5fields_t *fields;     /* NULL: no snapshots */
+    long next_field;        /* snapshots at next_field * run.field_interval */
+    long end_step;          /* the LBM step of run.end_time */
+    log_t log;
 } fluid_fmi_t;
 
 static status_t oom(const log_t *log)
@@ -116,12 +161,65 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
             }
         }
     }
+    if (s->run.fields) {
+        fmi_var_t *v = fmi_vars_add(&vs, FMI_STRING, FMI_PARAMETER, NULL, "output.fields");
+        if (v == NULL) {
+            st = oom(log);
+            goto done;
+        }
+        v->what = Q_FIELDS_FILE;
+        snprintf(v->description, sizeof v->description,
+                 "HDF5 file for field snapshots every run.field_interval (\"\": none), .xmf beside it");
+    }
     const int ns = scene_total_spheres(s);
     for (int i = 0; i < ns; i++) {
         if ((st = add_vector(&vs, FMI_OUTPUT, Q_FORCE, i, "force", "N", NULL, "hydrodynamic force", log)) ||
             (st = add_vector(&vs, FMI_OUTPUT, Q_TORQUE, i, "torque", "N.m", NULL,
                              "hydrodynamic torque about the centre", log))) {
             goto done;
+        }
+    }
+    for (int b = 0, i = 0; b < s->nbodies; b++) {
+        for (int k = 0; k < s->bodies[b].nspheres; k++, i++) {
+            if (s->bodies[b].motion == MOTION_FREE) {
+                continue;
+            }
+            if ((st = add_vector(&vs, FMI_OUTPUT, Q_POSITION, i, "position", "m", NULL, "centre position", log)) ||
+                (st = add_vector(&vs, FMI_OUTPUT, Q_VELOCITY, i, "velocity", "m/s", NULL, "centre velocity", log)) ||
+                (st = add_vector(&vs, FMI_OUTPUT, Q_ANGULAR_VELOCITY, i, "angular_velocity", "rad/s", NULL,
+                                 "angular velocity", log))) {
+                goto done;
+            }
+        }
+    }
+    static const struct {
+        const char *name, *unit, *desc;
+        int what, vector;
+    } diag[] = {
+        {"fluid.mass", "kg", "mass of the fluid cells", Q_MASS, 0},
+        {"fluid.momentum", "kg.m/s", "momentum of the fluid cells", Q_MOMENTUM, 1},
+        {"fluid.kinetic_energy", "J", "kinetic energy of the fluid cells", Q_KINETIC_ENERGY, 0},
+        {"fluid.max_speed", "m/s", "largest fluid speed", Q_MAX_SPEED, 0},
+        {"fluid.peak_velocity", "m/s", "velocity component of largest magnitude (signed)", Q_PEAK_VELOCITY, 1},
+    };
+    for (size_t d = 0; d < sizeof diag / sizeof diag[0]; d++) {
+        for (int a = 0; a < (diag[d].vector ? 3 : 1); a++) {
+            fmi_var_t *v = diag[d].vector
+                               ? fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, diag[d].unit, "%s.%c", diag[d].name, AXIS[a])
+                               : fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, diag[d].unit, "%s", diag[d].name);
+            if (v == NULL) {
+                st = oom(log);
+                goto done;
+            }
+            if (diag[d].vector) {
+                snprintf(v->description, sizeof v->description, "%s, %c component (computed when read)",
+                         diag[d].desc, AXIS[a]);
+            } else {
+                snprintf(v->description, sizeof v->description, "%s (computed when read)", diag[d].desc);
+            }
+            v->what = diag[d].what;
+            v->axis = a;
+            v->lazy = 1;
         }
     }
 done:
@@ -138,9 +236,13 @@ static void fluid_fmi_free(void *comp)
     if (m == NULL) {
         return;
     }
+    h5fields_close(m->fields); /* errors were reported at each snapshot */
     fluid_free(m->fl);
     free(m->kin);
     free(m->is_free);
+    free(m->rho);
+    free(m->u);
+    free(m->flags);
     free(m);
 }
 
@@ -165,8 +267,75 @@ static status_t fluid_fmi_create(const scene_t *s, double t0, const log_t *log, 
         fluid_fmi_free(m);
         return st;
     }
+    int n[3];
+    fluid_cells(m->fl, n);
+    m->ncells = (size_t)n[0] * n[1] * n[2];
+    m->rho = malloc(sizeof(double) * m->ncells);
+    m->u = malloc(sizeof(double) * 3 * m->ncells);
+    m->flags = malloc(m->ncells);
+    if (m->rho == NULL || m->u == NULL || m->flags == NULL) {
+        fluid_fmi_free(m);
+        return oom(log);
+    }
+    m->scene = s;
+    m->log = *log;
+    m->end_step = (long)ceil(s->run.end_time / fluid_units(m->fl)->dt - 1e-9);
     *comp = m;
     return st;
+}
+
+/* Moments and flags of every interior cell in SI units. */
+static void load_fields(fluid_fmi_t *m)
+{
+    const units_t *un = fluid_units(m->fl);
+    const double uv = units_velocity(un);
+    fluid_moments_lattice(m->fl, m->rho, m->u);
+    fluid_flags(m->fl, m->flags);
+    for (size_t i = 0; i < m->ncells; i++) {
+        m->rho[i] *= un->rho0;
+        for (int a = 0; a < 3; a++) {
+            m->u[3 * i + a] *= uv;
+        }
+    }
+}
+
+/* A snapshot when the current step reaches the next multiple of the field
+ * interval (or run.end_time); output times are k * interval from the step
+ * counter, never accumulated. */
+static status_t maybe_snapshot(fluid_fmi_t *m)
+{
+    if (m->fields == NULL) {
+        return STATUS_OK;
+    }
+    const double dt = fluid_units(m->fl)->dt, fi = m->scene->run.field_interval, t = fluid_time(m->fl);
+    const long step = fluid_step_count(m->fl);
+    if (t < m->next_field * fi - 1e-9 * dt && step != m->end_step) {
+        return STATUS_OK;
+    }
+    load_fields(m);
+    status_t st = h5fields_write(m->fields, step, t, m->rho, m->u, m->flags);
+    while (m->next_field * fi <= t + 1e-9 * dt) {
+        m->next_field++;
+    }
+    return st;
+}
+
+static status_t fluid_fmi_set_string(void *comp, const fmi_var_t *var, const char *value, const log_t *log)
+{
+    fluid_fmi_t *m = comp;
+    if (var->what != Q_FIELDS_FILE || value[0] == '\0') {
+        return STATUS_OK;
+    }
+    h5fields_close(m->fields);
+    m->fields = NULL;
+    int n[3];
+    fluid_cells(m->fl, n);
+    status_t st = h5fields_open(value, n, fluid_units(m->fl)->dx, log, &m->fields);
+    if (st >= STATUS_ERROR) {
+        return st;
+    }
+    m->next_field = 0;
+    return maybe_snapshot(m);
 }
 
 static status_t fluid_fmi_check_step(void *comp, double h, const log_t *log)
@@ -208,6 +377,12 @@ static status_t fluid_fmi_step(void *comp, const fmi_vars_t *vars, const double 
     const long steps = (long)nearbyint(h / fluid_units(m->fl)->dt);
     for (long n = 0; n < steps; n++) {
         st = status_worst(st, fluid_step(m->fl));
+        if (st < STATUS_ERROR && fluid_step_count(m->fl) % CHECK_EVERY == 0) {
+            st = status_worst(st, fluid_check(m->fl, MACH_LIMIT));
+        }
+        if (st < STATUS_ERROR) {
+            st = status_worst(st, maybe_snapshot(m));
+        }
         if (st >= STATUS_ERROR) {
             return log_msg(log, st, "fluid", "LBM step %ld of %ld in this communication step failed", n + 1, steps);
         }
@@ -215,16 +390,107 @@ static status_t fluid_fmi_step(void *comp, const fmi_vars_t *vars, const double 
     return st;
 }
 
+/* Kinematics of a fixed or prescribed sphere at time t (s): Rodrigues'
+ * rotation of the centre about the body centroid. */
+static void moved_sphere(const scene_t *s, int sphere, double t, double c[3], double v[3], double w[3])
+{
+    int b = 0, k = sphere;
+    while (k >= s->bodies[b].nspheres) {
+        k -= s->bodies[b].nspheres;
+        b++;
+    }
+    const scene_body_t *body = &s->bodies[b];
+    const int moving = body->motion == MOTION_PRESCRIBED;
+    double com[3] = {0, 0, 0}, vol = 0.0, rel[3], rot[3], wv[3] = {0, 0, 0}, vb[3] = {0, 0, 0};
+    for (int j = 0; j < body->nspheres; j++) {
+        const double r3 = pow(body->spheres[j].radius, 3.0);
+        for (int a = 0; a < 3; a++) {
+            com[a] += r3 * body->spheres[j].center[a];
+        }
+        vol += r3;
+    }
+    for (int a = 0; a < 3; a++) {
+        com[a] /= vol;
+        rel[a] = body->spheres[k].center[a] - com[a];
+        wv[a] = moving ? body->angular_velocity[a] : 0.0;
+        vb[a] = moving ? body->velocity[a] : 0.0;
+    }
+    const double wn = sqrt(wv[0] * wv[0] + wv[1] * wv[1] + wv[2] * wv[2]);
+    memcpy(rot, rel, sizeof rot);
+    if (wn > 0.0) {
+        const double e[3] = {wv[0] / wn, wv[1] / wn, wv[2] / wn}, ang = wn * t;
+        const double cs = cos(ang), sn = sin(ang), dot = e[0] * rel[0] + e[1] * rel[1] + e[2] * rel[2];
+        const double ex[3] = {e[1] * rel[2] - e[2] * rel[1], e[2] * rel[0] - e[0] * rel[2],
+                              e[0] * rel[1] - e[1] * rel[0]};
+        for (int a = 0; a < 3; a++) {
+            rot[a] = rel[a] * cs + ex[a] * sn + e[a] * dot * (1.0 - cs);
+        }
+    }
+    const double wr[3] = {wv[1] * rot[2] - wv[2] * rot[1], wv[2] * rot[0] - wv[0] * rot[2],
+                          wv[0] * rot[1] - wv[1] * rot[0]};
+    for (int a = 0; a < 3; a++) {
+        c[a] = com[a] + vb[a] * t + rot[a];
+        if (s->domain.faces[2 * a].type == FACE_PERIODIC) {
+            const double L = s->domain.size[a];
+            c[a] -= L * floor(c[a] / L);
+        }
+        v[a] = vb[a] + wr[a];
+        w[a] = wv[a];
+    }
+}
+
 static void fluid_fmi_outputs(void *comp, const fmi_vars_t *vars, double *values)
 {
     const fluid_fmi_t *m = comp;
     for (int j = 0; j < vars->n; j++) {
         const fmi_var_t *v = &vars->v[j];
-        if (v->causality == FMI_OUTPUT) {
-            double f[3], tq[3];
-            fluid_sphere_load(m->fl, v->index, f, tq);
-            values[j] = v->what == Q_FORCE ? f[v->axis] : tq[v->axis];
+        if (v->causality != FMI_OUTPUT || v->lazy) {
+            continue;
         }
+        double q[3][3];
+        if (v->what == Q_FORCE || v->what == Q_TORQUE) {
+            fluid_sphere_load(m->fl, v->index, q[0], q[1]);
+            values[j] = q[v->what - Q_FORCE][v->axis];
+        } else {
+            moved_sphere(m->scene, v->index, fluid_time(m->fl), q[0], q[1], q[2]);
+            values[j] = q[v->what - Q_POSITION][v->axis];
+        }
+    }
+}
+
+/* Totals over the fluid cells (one pass over the grid). */
+static void fluid_fmi_lazy_outputs(void *comp, const fmi_vars_t *vars, double *values)
+{
+    fluid_fmi_t *m = comp;
+    load_fields(m);
+    const double dx = fluid_units(m->fl)->dx, cell = dx * dx * dx;
+    double mass = 0.0, mom[3] = {0, 0, 0}, ke = 0.0, vmax = 0.0, peak[3] = {0, 0, 0};
+    for (size_t i = 0; i < m->ncells; i++) {
+        if (m->flags[i] != 0) {
+            continue;
+        }
+        const double r = m->rho[i], *u = &m->u[3 * i];
+        const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+        mass += r * cell;
+        for (int a = 0; a < 3; a++) {
+            mom[a] += r * u[a] * cell;
+            if (fabs(u[a]) > fabs(peak[a])) {
+                peak[a] = u[a];
+            }
+        }
+        ke += 0.5 * r * uu * cell;
+        vmax = fmax(vmax, sqrt(uu));
+    }
+    for (int j = 0; j < vars->n; j++) {
+        const fmi_var_t *v = &vars->v[j];
+        if (!v->lazy) {
+            continue;
+        }
+        values[j] = v->what == Q_MASS             ? mass
+                    : v->what == Q_MOMENTUM       ? mom[v->axis]
+                    : v->what == Q_KINETIC_ENERGY ? ke
+                    : v->what == Q_MAX_SPEED      ? vmax
+                                                  : peak[v->axis];
     }
 }
 
@@ -238,9 +504,18 @@ static status_t fluid_fmi_state_save(void *comp, void *buf, size_t size)
     return fluid_state_save(((fluid_fmi_t *)comp)->fl, buf, size);
 }
 
+/* After a restore, snapshots continue from the restored step (a snapshot
+ * written again replaces the one of the same step). */
 static status_t fluid_fmi_state_restore(void *comp, const void *buf, size_t size)
 {
-    return fluid_state_restore(((fluid_fmi_t *)comp)->fl, buf, size);
+    fluid_fmi_t *m = comp;
+    status_t st = fluid_state_restore(m->fl, buf, size);
+    const double dt = fluid_units(m->fl)->dt, t = fluid_time(m->fl);
+    m->next_field = 0;
+    while (m->fields != NULL && m->next_field * m->scene->run.field_interval <= t + 1e-9 * dt) {
+        m->next_field++;
+    }
+    return st;
 }
 
 const fmi_model_t fluid_fmi_model = {
@@ -254,6 +529,8 @@ const fmi_model_t fluid_fmi_model = {
     .check_step = fluid_fmi_check_step,
     .step = fluid_fmi_step,
     .outputs = fluid_fmi_outputs,
+    .lazy_outputs = fluid_fmi_lazy_outputs,
+    .set_string = fluid_fmi_set_string,
     .state_size = fluid_fmi_state_size,
     .state_save = fluid_fmi_state_save,
     .state_restore = fluid_fmi_state_restore,

@@ -81,6 +81,14 @@ typedef struct {
 } rigid_config_t;
 
 status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out);
+
+/* The configuration of a scene (rigid_scene.c): every body of the scene,
+ * fixed and prescribed ones as fixed bodies; sphere i = the scene's global
+ * sphere index, its body the scene body index; walls from the domain faces.
+ * Free the arrays with rigid_scene_config_free (also after a failure). */
+struct scene; /* scene_t, common/scene.h */
+status_t rigid_config_from_scene(const struct scene *s, double t0, const log_t *log, rigid_config_t *cfg);
+void rigid_scene_config_free(rigid_config_t *cfg);
 void rigid_free(rigid_t *r);
 
 /* Hydrodynamic force (N) and torque about the sphere centre (N m) of one

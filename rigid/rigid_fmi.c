@@ -1,7 +1,7 @@
 /* rigid_fmi.c — the rigid component as an FMI 2.0 Co-Simulation FMU: the
- * scene -> rigid_config_t translation and the mapping between value
- * references and the native API (rigid.h). The FMI entry points, call-order
- * checks and logging are common/fmi_adapter.c.
+ * mapping between value references and the native API (rigid.h). The scene
+ * -> rigid_config_t translation is rigid_config_from_scene (rigid_scene.c);
+ * the FMI entry points, call-order checks and logging are common/fmi_adapter.c.
  *
  * What the FMU covers: the rigid component is built from every body of the
  * scene; fixed and prescribed bodies enter as fixed bodies (obstacles for
@@ -13,7 +13,9 @@
  *   parameters  rigid.gravity.x|y|z, rigid.substeps, rigid.rtol, rigid.atol,
  *               fluid.density (buoyancy)
  *   inputs      sphere[i].force|torque.x|y|z (hydrodynamic; start 0)
- *   outputs     sphere[i].position|velocity|angular_velocity.x|y|z
+ *   outputs     sphere[i].position|velocity|angular_velocity.x|y|z,
+ *               sphere[i].body (Integer: the current body id; ids start as
+ *               the scene body index and change when bodies split or merge)
  *               connection[k].force|torque.x|y|z, connection[k].intact
  * Connections created when bodies stick (beyond the scene's list) are not
  * exposed. A scene without free bodies needs no rigid FMU (variables()
@@ -25,7 +27,17 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-enum { Q_FORCE, Q_TORQUE, Q_POSITION, Q_VELOCITY, Q_ANGULAR_VELOCITY, Q_CONN_FORCE, Q_CONN_TORQUE, Q_CONN_INTACT };
+enum {
+    Q_FORCE,
+    Q_TORQUE,
+    Q_POSITION,
+    Q_VELOCITY,
+    Q_ANGULAR_VELOCITY,
+    Q_CONN_FORCE,
+    Q_CONN_TORQUE,
+    Q_CONN_INTACT,
+    Q_BODY
+};
 
 static const char *const AXIS = "xyz";
 
@@ -123,6 +135,15 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                                  "angular velocity", log))) {
                 goto done;
             }
+            fmi_var_t *v = fmi_vars_add(&vs, FMI_INTEGER, FMI_OUTPUT, NULL, "sphere[%d].body", i);
+            if (v == NULL) {
+                st = oom(log);
+                goto done;
+            }
+            snprintf(v->description, sizeof v->description, "body id of sphere %d (changes on break-up and sticking)",
+                     i);
+            v->what = Q_BODY;
+            v->index = i;
         }
     }
     for (int k = 0; k < s->nconnections; k++) {
@@ -150,11 +171,6 @@ done:
     return st;
 }
 
-static int is_wall(face_type_t t)
-{
-    return t == FACE_NO_SLIP || t == FACE_FREE_SLIP || t == FACE_MOVING_WALL;
-}
-
 static void rigid_fmi_free(void *comp)
 {
     rigid_fmi_t *m = comp;
@@ -170,77 +186,24 @@ static status_t rigid_fmi_create(const scene_t *s, double t0, const log_t *log, 
 {
     *comp = NULL;
     const int ns = scene_total_spheres(s);
-    rigid_sphere_cfg_t *sp = calloc((size_t)ns + 1, sizeof *sp);
-    rigid_body_cfg_t *bd = calloc((size_t)s->nbodies + 1, sizeof *bd);
-    rigid_connection_cfg_t *cn = calloc((size_t)s->nconnections + 1, sizeof *cn);
+    rigid_config_t cfg;
     rigid_fmi_t *m = calloc(1, sizeof *m);
-    status_t st = STATUS_OK;
-    if (sp == NULL || bd == NULL || cn == NULL || m == NULL ||
-        (m->load = calloc(6 * (size_t)ns + 1, sizeof(double))) == NULL) {
+    status_t st = rigid_config_from_scene(s, t0, log, &cfg);
+    if (st >= STATUS_ERROR) {
+        free(m);
+        return st;
+    }
+    if (m == NULL || (m->load = calloc(6 * (size_t)ns + 1, sizeof(double))) == NULL) {
         st = oom(log);
         goto done;
     }
     m->ns = ns;
-    for (int b = 0, i = 0; b < s->nbodies; b++) {
-        const scene_body_t *body = &s->bodies[b];
-        bd[b].density = body->density;
-        bd[b].fixed = body->motion != MOTION_FREE;
-        for (int a = 0; a < 3; a++) {
-            bd[b].velocity[a] = bd[b].fixed ? 0.0 : body->velocity[a];
-            bd[b].angular_velocity[a] = bd[b].fixed ? 0.0 : body->angular_velocity[a];
-        }
-        for (int k = 0; k < body->nspheres; k++, i++) {
-            for (int a = 0; a < 3; a++) {
-                sp[i].center[a] = body->spheres[k].center[a];
-            }
-            sp[i].radius = body->spheres[k].radius;
-            sp[i].body = b;
-        }
-    }
-    for (int k = 0; k < s->nconnections; k++) {
-        cn[k] = (rigid_connection_cfg_t){s->connections[k].a, s->connections[k].b, s->connections[k].max_normal,
-                                         s->connections[k].max_shear, s->connections[k].max_torque};
-    }
-    rigid_config_t cfg = {
-        .nspheres = ns,
-        .nbodies = s->nbodies,
-        .nconnections = s->nconnections,
-        .spheres = sp,
-        .bodies = bd,
-        .connections = cn,
-        .fluid_density = s->fluid.density,
-        .contact_model = s->contacts.model == CONTACT_HERTZ            ? RIGID_CONTACT_HERTZ
-                         : s->contacts.model == CONTACT_SPRING_DASHPOT ? RIGID_CONTACT_SPRING_DASHPOT
-                                                                       : RIGID_CONTACT_NONE,
-        .restitution = s->contacts.restitution,
-        .contact_time = s->contacts.contact_time,
-        .friction = s->contacts.friction,
-        .young_modulus = s->contacts.young_modulus,
-        .poisson_ratio = s->contacts.poisson_ratio,
-        .stick_speed = s->contacts.stick_speed,
-        .integrator = s->rigid.integrator == INTEGRATOR_CVODE ? RIGID_CVODE : RIGID_VERLET,
-        .cvode_method = s->rigid.cvode_method == CVODE_ADAMS ? RIGID_ADAMS : RIGID_BDF,
-        .linsol = s->rigid.linear_solver == LINSOL_SPGMR ? RIGID_LS_SPGMR : RIGID_LS_DENSE,
-        .rtol = s->rigid.rtol,
-        .atol = s->rigid.atol,
-        .substeps = s->rigid.substeps,
-        .t0 = t0,
-    };
-    for (int a = 0; a < 3; a++) {
-        cfg.gravity[a] = s->rigid.gravity[a];
-        cfg.walls[a][0] = is_wall(s->domain.faces[2 * a].type);
-        cfg.walls[a][1] = is_wall(s->domain.faces[2 * a + 1].type);
-        cfg.box_lo[a] = 0.0;
-        cfg.box_hi[a] = s->domain.size[a];
-    }
     st = rigid_create(&cfg, log, &m->r);
     if (st >= STATUS_ERROR) {
         m->r = NULL;
     }
 done:
-    free(sp);
-    free(bd);
-    free(cn);
+    rigid_scene_config_free(&cfg);
     if (st >= STATUS_ERROR) {
         rigid_fmi_free(m);
         return st;
@@ -277,7 +240,9 @@ static void rigid_fmi_outputs(void *comp, const fmi_vars_t *vars, double *values
         }
         double q[3][3];
         int intact = 0;
-        if (v->what <= Q_ANGULAR_VELOCITY) {
+        if (v->what == Q_BODY) {
+            values[j] = rigid_sphere_body(m->r, v->index);
+        } else if (v->what <= Q_ANGULAR_VELOCITY) {
             rigid_get_sphere(m->r, v->index, q[0], q[1], q[2]);
             values[j] = q[v->what - Q_POSITION][v->axis];
         } else {

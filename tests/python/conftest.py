@@ -8,6 +8,11 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 COUPLER = ROOT / "build" / "coupler"
 MODELS = ROOT / "models"
+PY = ROOT / ".venv" / "bin" / "python"
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "validate: long physics validation, run by `make validate`")
 
 
 @pytest.fixture(scope="session")

@@ -55,8 +55,12 @@ def test_fields_and_xdmf(coupler, tmp_path):
     p = run("run", MODELS / "lid_driven_cavity.yaml", "-o", out, "--quiet", "--set", "run.end_time=0.02",
             "--set", "run.field_interval=0.01", "--set", "domain.size=[5e-4,5e-4,5e-4]")
     assert p.returncode == 0, p.stderr
-    xmf = tmp_path / "cavity.xmf"
+    # the fluid FMU writes the fields into cavity_fields.h5 with its index
+    # cavity_fields.xmf; cavity.h5 links /fields to it
+    xmf = tmp_path / "cavity_fields.xmf"
     root = ET.parse(xmf).getroot()
+    files = {d.text.split(":")[0] for d in root.iter("DataItem") if d.get("Format") == "HDF"}
+    assert files == {"cavity_fields.h5"}
     items = [d.text.split(":")[1] for d in root.iter("DataItem") if d.get("Format") == "HDF"]
     assert len(items) == 3 * 3  # t = 0, 0.01, 0.02: density, velocity, flags
     with h5py.File(out, "r") as f:

@@ -102,7 +102,9 @@ def test_scene_without_free_bodies_has_no_rigid_fmu(fmus):
     assert not (fmus["fixed"] / "rigid.fmu").exists()
     assert "no rigid.fmu" in fmus["fixed_stdout"]
     _, v = variables(fmus["fixed"] / "fluid.fmu")
-    assert not any(n.startswith("sphere[0].position") for n in v)  # the fluid moves a fixed sphere itself
+    # the fluid moves a fixed sphere itself: its kinematics are outputs, not inputs
+    assert all(x.causality == "output" for n, x in v.items() if n.startswith("sphere[0]."))
+    assert v["sphere[0].position.z"].causality == "output"
     assert v["sphere[0].force.x"].causality == "output"
 
 
@@ -338,3 +340,40 @@ def test_fmu_state_restore_is_bit_identical(fmus, tmp_path, fmu, inputs):
     other.fails(other.fmu.deSerializeFMUstate, b"garbage" * 20, expect="bad magic")
     other.close()
     s.close()
+
+
+def test_fields_string_parameter_and_lazy_totals(coupler, tmp_path):
+    """output.fields (String, only with run.fields) makes the fluid FMU write
+    its own field snapshots; the fluid totals are outputs computed when read."""
+    text = SCENE.format(motion="\n    motion: fixed").replace(
+        "output_interval: 1.0e-4}", "output_interval: 1.0e-4, fields: true, field_interval: 2.0e-5}")
+    d, _ = export(tmp_path, "fields", text)
+    assert validate_fmu(str(d / "fluid.fmu")) == []
+    s = Slave(d / "fluid.fmu", tmp_path)
+    f = s.fmu
+    var = {v.name: v for v in s.md.modelVariables}["output.fields"]
+    assert var.type == "String" and var.causality == "parameter" and var.variability == "fixed"
+    h5 = tmp_path / "f.h5"
+    f.setupExperiment(startTime=0.0)
+    f.enterInitializationMode()
+    f.setString([var.valueReference], [str(h5)])
+    assert f.getString([var.valueReference])[0].decode() == str(h5)
+    f.exitInitializationMode()
+    s.fails(f.setString, [var.valueReference], ["other.h5"], expect="fixed parameter")
+    for n in range(5):
+        f.doStep(n * DT, DT)
+    mass, ke = f.getReal([s.vr["fluid.mass"], s.vr["fluid.kinetic_energy"]])
+    f.terminate()
+    s.close()
+    fluid_volume = (1.6e-4) ** 3 - 4 / 3 * math.pi * (3e-5) ** 3  # the sphere, 3 cells: about +-5% in cells
+    assert mass == pytest.approx(RHO_F * fluid_volume, rel=0.05) and ke < 1e-30  # fixed sphere, fluid at rest
+    import h5py
+    with h5py.File(h5, "r") as h:
+        assert sorted(h["/fields"].keys()) == ["000000", "000002", "000004"]
+        assert h["/fields/000004"].attrs["time"] == pytest.approx(4 * DT)
+    assert "f.h5:/fields/000004/velocity" in (tmp_path / "f.xmf").read_text()
+    # without run.fields the FMU has no String variable at all
+    _, v = variables(d.parent / "fields" / "fluid.fmu")
+    assert "output.fields" in v
+    _, v = variables(export(tmp_path, "nofields", SCENE.format(motion=""))[0] / "fluid.fmu")
+    assert "output.fields" not in v

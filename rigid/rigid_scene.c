@@ -1,0 +1,98 @@
+/* rigid_scene.c — the scene -> rigid_config_t translation (rigid.h).
+ *
+ * One place maps the scene struct (common/scene.h) to the rigid component's
+ * configuration, so that the FMU (rigid_fmi.c) and any other user build the
+ * same bodies. Every body of the scene enters: free bodies move, fixed and
+ * prescribed bodies enter as fixed bodies (obstacles for contacts; prescribed
+ * motion belongs to the fluid). Sphere i is the scene's global sphere index
+ * (bodies in order, their spheres in order), its body the scene body index.
+ * The arrays are owned by the caller through rigid_scene_config_free. */
+#include "rigid.h"
+
+#include "../common/scene.h"
+
+#include <stdlib.h>
+
+static int is_wall(face_type_t t)
+{
+    return t == FACE_NO_SLIP || t == FACE_FREE_SLIP || t == FACE_MOVING_WALL;
+}
+
+status_t rigid_config_from_scene(const scene_t *s, double t0, const log_t *log, rigid_config_t *cfg)
+{
+    const int ns = scene_total_spheres(s);
+    rigid_sphere_cfg_t *sp = calloc((size_t)ns + 1, sizeof *sp);
+    rigid_body_cfg_t *bd = calloc((size_t)s->nbodies + 1, sizeof *bd);
+    rigid_connection_cfg_t *cn = calloc((size_t)s->nconnections + 1, sizeof *cn);
+    *cfg = (rigid_config_t){0};
+    if (sp == NULL || bd == NULL || cn == NULL) {
+        free(sp);
+        free(bd);
+        free(cn);
+        return log_msg(log, STATUS_FATAL, "rigid", "out of memory");
+    }
+    for (int b = 0, i = 0; b < s->nbodies; b++) {
+        const scene_body_t *body = &s->bodies[b];
+        bd[b].density = body->density;
+        bd[b].fixed = body->motion != MOTION_FREE;
+        for (int a = 0; a < 3; a++) {
+            bd[b].velocity[a] = bd[b].fixed ? 0.0 : body->velocity[a];
+            bd[b].angular_velocity[a] = bd[b].fixed ? 0.0 : body->angular_velocity[a];
+        }
+        for (int k = 0; k < body->nspheres; k++, i++) {
+            for (int a = 0; a < 3; a++) {
+                sp[i].center[a] = body->spheres[k].center[a];
+            }
+            sp[i].radius = body->spheres[k].radius;
+            sp[i].body = b;
+        }
+    }
+    for (int k = 0; k < s->nconnections; k++) {
+        cn[k] = (rigid_connection_cfg_t){s->connections[k].a, s->connections[k].b, s->connections[k].max_normal,
+                                         s->connections[k].max_shear, s->connections[k].max_torque};
+    }
+    *cfg = (rigid_config_t){
+        .nspheres = ns,
+        .nbodies = s->nbodies,
+        .nconnections = s->nconnections,
+        .spheres = sp,
+        .bodies = bd,
+        .connections = cn,
+        .fluid_density = s->fluid.density,
+        .contact_model = s->contacts.model == CONTACT_HERTZ            ? RIGID_CONTACT_HERTZ
+                         : s->contacts.model == CONTACT_SPRING_DASHPOT ? RIGID_CONTACT_SPRING_DASHPOT
+                                                                       : RIGID_CONTACT_NONE,
+        .restitution = s->contacts.restitution,
+        .contact_time = s->contacts.contact_time,
+        .friction = s->contacts.friction,
+        .young_modulus = s->contacts.young_modulus,
+        .poisson_ratio = s->contacts.poisson_ratio,
+        .stick_speed = s->contacts.stick_speed,
+        .integrator = s->rigid.integrator == INTEGRATOR_CVODE ? RIGID_CVODE : RIGID_VERLET,
+        .cvode_method = s->rigid.cvode_method == CVODE_ADAMS ? RIGID_ADAMS : RIGID_BDF,
+        .linsol = s->rigid.linear_solver == LINSOL_SPGMR ? RIGID_LS_SPGMR : RIGID_LS_DENSE,
+        .rtol = s->rigid.rtol,
+        .atol = s->rigid.atol,
+        .substeps = s->rigid.substeps,
+        .t0 = t0,
+    };
+    for (int a = 0; a < 3; a++) {
+        cfg->gravity[a] = s->rigid.gravity[a];
+        cfg->walls[a][0] = is_wall(s->domain.faces[2 * a].type);
+        cfg->walls[a][1] = is_wall(s->domain.faces[2 * a + 1].type);
+        cfg->box_lo[a] = 0.0;
+        cfg->box_hi[a] = s->domain.size[a];
+    }
+    return STATUS_OK;
+}
+
+void rigid_scene_config_free(rigid_config_t *cfg)
+{
+    /* the arrays were allocated non-const above */
+    free((void *)cfg->spheres);
+    free((void *)cfg->bodies);
+    free((void *)cfg->connections);
+    cfg->spheres = NULL;
+    cfg->bodies = NULL;
+    cfg->connections = NULL;
+}

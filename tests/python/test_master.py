@@ -1,0 +1,382 @@
+"""The co-simulation master (DESIGN sections 2, 3, 5; issue 5): `coupler run`
+through FMI, coupler/fmpy_master.py, the output layout, checkpoint/restore of
+the coupled run, bad input, and low-Reynolds settling against Sangani &
+Acrivos (1982).
+
+Scenes are small (16^3 to 20^3 cells, radius 3 to 5 cells) so that the file
+runs in about two minutes on two cores; the long checks carry the `validate`
+marker (`make validate`)."""
+import json
+import math
+import os
+import subprocess
+import zipfile
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import MODELS, PY, ROOT, run
+
+# Two spheres glued by a connection (free body, CVODE or Verlet), one fixed
+# sphere, a no-slip floor; fields on so that every part of the layout exists.
+COUPLED = """\
+domain:
+  size: [2.0e-4, 2.0e-4, 2.0e-4]
+  faces: {{z_min: {{type: no_slip}}, z_max: {{type: free_slip}}}}
+fluid: {{density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-5, tau: 0.8}}
+bodies:
+  - density: 4000.0
+    spheres:
+      - {{center: [8.0e-5, 1.0e-4, 1.2e-4], radius: 3.0e-5}}
+      - {{center: [1.3e-4, 1.0e-4, 1.2e-4], radius: 3.0e-5}}
+  - density: 3000.0
+    motion: fixed
+    spheres:
+      - {{center: [5.0e-5, 5.0e-5, 4.0e-5], radius: 3.0e-5}}
+connections:
+  - {{spheres: [0, 1]}}
+rigid: {{gravity: [0, 0, -9.81], integrator: {integrator}}}
+run: {{end_time: {end}, output_interval: 1.0e-4, fields: {fields}, field_interval: 5.0e-4}}
+"""
+
+# One sphere, free or prescribed, without connections and fields.
+SINGLE = """\
+domain:
+  size: [1.6e-4, 1.6e-4, 1.6e-4]
+fluid: {{density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-5, tau: 0.8}}
+bodies:
+  - density: 2000.0{motion}
+    spheres:
+      - {{center: [8.0e-5, 8.0e-5, 8.0e-5], radius: 3.0e-5}}
+rigid: {{gravity: [0, 0, -9.81]}}
+run: {{end_time: 5.0e-4, output_interval: 1.0e-4}}
+"""
+
+
+def scene(tmp_path, name, text):
+    p = tmp_path / f"{name}.yaml"
+    p.write_text(text)
+    return p
+
+
+def coupled(tmp_path, integrator="verlet", end="1.0e-3", fields="true", name="coupled"):
+    return scene(tmp_path, name, COUPLED.format(integrator=integrator, end=end, fields=fields))
+
+
+def datasets(f):
+    out = {}
+    f.visititems(lambda n, o: out.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
+    return out
+
+
+# --- output layout ---------------------------------------------------------------
+
+
+def test_coupled_layout_units_and_fields(coupler, tmp_path):
+    s = coupled(tmp_path)
+    out = tmp_path / "out.h5"
+    p = run("run", s, "-o", out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f:
+        n = f["/time"].shape[0]
+        assert n == 11 and f["/time"][-1] == pytest.approx(1e-3, rel=1e-12)
+        units = {"position": "m", "velocity": "m/s", "angular_velocity": "rad/s", "force": "N", "torque": "N m"}
+        for q, unit in units.items():
+            d = f[f"/spheres/{q}"]
+            assert d.shape == (n, 3, 3) and d.dtype == np.float64
+            assert d.attrs["unit"].decode() == unit
+            assert d.maxshape[0] is None and d.chunks is not None  # extendible, chunked
+        assert f["/spheres/body"].shape == (n, 3) and f["/spheres/body"].dtype == np.int32
+        assert list(f["/spheres/body"][-1]) == [0, 0, 1]  # the glued pair is body 0, the fixed sphere body 1
+        assert f["/connections/pair"][:].tolist() == [[0, 1]]
+        assert f["/connections/force"].shape == (n, 1, 3) and f["/connections/force"].attrs["unit"].decode() == "N"
+        assert f["/connections/torque"].attrs["unit"].decode() == "N m"
+        assert f["/connections/intact"][:].tolist() == [[1]] * n
+        # the fixed sphere stays where it is, its position published by the fluid
+        assert np.all(f["/spheres/position"][:, 2] == [5.0e-5, 5.0e-5, 4.0e-5])
+        assert np.all(f["/spheres/velocity"][:, 2] == 0)
+        # the pair falls and feels a hydrodynamic force against gravity
+        assert f["/spheres/velocity"][-1, 0, 2] < 0 and f["/spheres/force"][-1, 0, 2] > 0
+        a = f.attrs
+        for key in ("dx", "dt", "tau", "grid", "ranks", "version", "integrator", "scene", "wall_time_fluid",
+                    "wall_time_rigid", "wall_time_master", "wall_time_total"):
+            assert key in a, key
+        assert list(a["grid"]) == [20, 20, 20] and a["dx"] == 1e-5
+        calls = json.loads(a["fmi_calls_fluid"])
+        assert calls["fmi2DoStep"] == 100 and json.loads(a["fmi_calls_rigid"])["fmi2DoStep"] == 100
+        # fields: an external link into the fluid FMU's own file
+        assert sorted(f["/fields"].keys()) == ["000000", "000050", "000100"]
+        assert f["/fields/000100/velocity"].shape == (20, 20, 20, 3)
+        assert f["/fields/000100/flags"][:].sum() > 0  # spheres are solid cells
+    assert (tmp_path / "out_fields.h5").exists() and (tmp_path / "out_fields.xmf").exists()
+    assert "out_fields.h5:/fields/000100/density" in (tmp_path / "out_fields.xmf").read_text()
+
+
+def test_only_what_the_scene_needs(coupler, tmp_path):
+    # one free sphere: no connections, no fields
+    out = tmp_path / "free.h5"
+    p = run("run", scene(tmp_path, "free", SINGLE.format(motion="")), "-o", out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f:
+        assert "spheres" in f and "connections" not in f and "fields" not in f
+        assert "fmi_calls_rigid" in f.attrs
+    assert not (tmp_path / "free_fields.h5").exists()
+    # a prescribed sphere: the fluid runs alone (no rigid.fmu), the sphere moves as prescribed
+    out = tmp_path / "pres.h5"
+    motion = "\n    motion: prescribed\n    velocity: [1.0e-3, 0, 0]"
+    p = run("run", scene(tmp_path, "pres", SINGLE.format(motion=motion)), "-o", out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert "no rigid.fmu" in p.stdout
+    with h5py.File(out, "r") as f:
+        assert "fmi_calls_rigid" not in f.attrs and "connections" not in f
+        x = f["/spheres/position"][:, 0, 0]
+        t = f["/time"][:]
+        assert x == pytest.approx(8.0e-5 + 1.0e-3 * t, abs=1e-12)
+        assert list(f["/spheres/body"][-1]) == [0]
+    # no spheres: no particle code, no /spheres
+    out = tmp_path / "chan.h5"
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", out, "--quiet", "--steps", "10")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f:
+        assert "spheres" not in f and "connections" not in f and "fields" not in f
+        assert "fluid" in f
+
+
+def test_log_fmi_calls_and_exchange_every(coupler, tmp_path):
+    s = coupled(tmp_path, fields="false")
+    out, log = tmp_path / "k.h5", tmp_path / "calls.log"
+    p = run("run", s, "-o", out, "--quiet", "--exchange-every", "5", "--log-fmi-calls", log)
+    assert p.returncode == 0, p.stderr
+    lines = log.read_text().splitlines()
+    with h5py.File(out, "r") as f:
+        counts = {**{f"fluid.fmu {k}": v for k, v in json.loads(f.attrs["fmi_calls_fluid"]).items()},
+                  **{f"rigid.fmu {k}": v for k, v in json.loads(f.attrs["fmi_calls_rigid"]).items()}}
+        assert f.attrs["communication_step"] == pytest.approx(5e-5, rel=1e-12)
+        assert f["/time"].shape[0] == 11
+        h = f.attrs["communication_step"]
+    assert sum(counts.values()) == sum(1 for l in lines if "fmi2Terminate" not in l and "FreeInstance" not in l)
+    steps = [l for l in lines if l.startswith("fluid.fmu fmi2DoStep(")]
+    assert len(steps) == 20
+    assert float(steps[0].split("communicationStepSize=")[1].split(",")[0]) == h  # %.17g: exact
+    assert all(l.endswith("-> fmi2OK") for l in lines)
+    assert any(l.startswith("fluid.fmu fmi2SetReal(vr=[") and "value=[" in l for l in lines)
+
+
+# --- fmpy master -------------------------------------------------------------------
+
+
+def test_fmpy_master_equals_c_coupler(coupler, tmp_path):
+    s = coupled(tmp_path, integrator="cvode")
+    c_out, py_out = tmp_path / "c.h5", tmp_path / "py.h5"
+    p = run("run", s, "-o", c_out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    q = subprocess.run([str(PY), str(ROOT / "coupler" / "fmpy_master.py"), str(s), "-o", str(py_out)],
+                       capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS="2"), timeout=600)
+    assert q.returncode == 0, q.stderr
+    with h5py.File(c_out, "r") as a, h5py.File(py_out, "r") as b:
+        da, db = datasets(a), datasets(b)
+        assert sorted(da) == sorted(db)
+        for k in da:
+            assert da[k].dtype == db[k].dtype and da[k].shape == db[k].shape, k
+            assert np.array_equal(da[k], db[k]), k  # the same libraries, the same calls: bit-identical
+        for k in ("dx", "dt", "tau", "grid", "ranks", "communication_step", "scene", "integrator"):
+            assert np.array_equal(a.attrs[k], b.attrs[k]), k
+        assert np.array_equal(a["/fields/000100/velocity"][:], b["/fields/000100/velocity"][:])
+        assert json.loads(a.attrs["fmi_calls_rigid"])["fmi2DoStep"] == json.loads(b.attrs["fmi_calls_rigid"])[
+            "fmi2DoStep"]
+
+
+def test_plot_script(coupler, tmp_path):
+    s = coupled(tmp_path, fields="false")
+    out = tmp_path / "o.h5"
+    assert run("run", s, "-o", out, "--quiet").returncode == 0
+    q = subprocess.run([str(PY), str(ROOT / "coupler" / "plot.py"), str(out), "-o", str(tmp_path / "png")],
+                       capture_output=True, text=True, timeout=300)
+    assert q.returncode == 0, q.stderr
+    names = sorted(os.path.basename(l) for l in q.stdout.split())
+    assert names == ["o_connections.png", "o_fluid.png", "o_force.png", "o_trajectories.png", "o_velocity.png"]
+    for n in names:
+        assert (tmp_path / "png" / n).read_bytes()[:4] == b"\x89PNG"
+
+
+# --- checkpoint ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("integrator", ["verlet", "cvode"])
+def test_checkpoint_restore_bit_identical(coupler, tmp_path, integrator):
+    s = coupled(tmp_path, integrator=integrator)
+    p = run("run", s, "-o", tmp_path / "cp.h5", "--quiet", "--checkpoint-test", "4e-4")
+    assert p.returncode == 0, p.stderr
+    line = [l for l in p.stdout.splitlines() if "checkpoint test" in l][0]
+    assert "bit-identical (0 of 61 communication points differ)" in line
+
+
+# --- bad input -----------------------------------------------------------------------
+
+
+@pytest.fixture
+def keep(tmp_path):
+    out = tmp_path / "keep.h5"
+    out.write_bytes(b"precious")
+    (tmp_path / "keep_fields.h5").write_bytes(b"precious too")
+    return out
+
+
+def assert_untouched(out, p, *words):
+    assert p.returncode == 1, p.stdout + p.stderr
+    for w in words:
+        assert w in p.stderr, p.stderr
+    assert out.read_bytes() == b"precious"
+    assert (out.parent / "keep_fields.h5").read_bytes() == b"precious too"
+    assert "communication step" not in p.stdout  # no summary: nothing ran
+
+
+def test_missing_and_broken_fmu(coupler, tmp_path, keep):
+    s = coupled(tmp_path)
+    p = run("run", s, "-o", keep, "--fluid-fmu", tmp_path / "nowhere.fmu")
+    assert_untouched(keep, p, "nowhere.fmu", "cannot read the FMU")
+    bad = tmp_path / "bad.fmu"
+    bad.write_bytes(b"not a zip archive")
+    p = run("run", s, "-o", keep, "--fluid-fmu", bad)
+    assert_untouched(keep, p, "bad.fmu", "Not a zip archive")
+    # a real archive whose library is broken
+    d = tmp_path / "fmus"
+    assert run("export", s, "-d", d).returncode == 0
+    with zipfile.ZipFile(d / "fluid.fmu") as z, zipfile.ZipFile(tmp_path / "nolib.fmu", "w") as w:
+        for item in z.infolist():
+            w.writestr(item, b"\x7fELF garbage" if item.filename.endswith(".so") else z.read(item))
+    p = run("run", s, "-o", keep, "--fluid-fmu", tmp_path / "nolib.fmu")
+    assert_untouched(keep, p, "cannot load the FMU library")
+    # an archive without modelDescription.xml
+    with zipfile.ZipFile(tmp_path / "nodesc.fmu", "w") as w:
+        w.writestr("resources/scene.yaml", s.read_text())
+    p = run("run", s, "-o", keep, "--fluid-fmu", tmp_path / "nodesc.fmu")
+    assert_untouched(keep, p, "modelDescription.xml")
+
+
+def test_mismatched_signals_and_foreign_fmus(coupler, tmp_path, keep):
+    s = coupled(tmp_path)
+    other = scene(tmp_path, "other", SINGLE.format(motion=""))
+    d = tmp_path / "other_fmus"
+    assert run("export", other, "-d", d).returncode == 0
+    log = tmp_path / "calls.log"
+    # rigid.fmu of a one-sphere scene: the coupled fluid's inputs for sphere 1 have no partner
+    p = run("run", s, "-o", keep, "--rigid-fmu", d / "rigid.fmu", "--log-fmi-calls", log)
+    assert_untouched(keep, p, "signal mismatch", "sphere[1].position.x", "do not fit together")
+    assert log.read_text() == ""  # nothing was even instantiated
+    # both FMUs of another scene fit each other but not this scene
+    p = run("run", s, "-o", keep, "--rigid-fmu", d / "rigid.fmu", "--fluid-fmu", d / "fluid.fmu")
+    assert_untouched(keep, p, "exported from another scene")
+
+
+def test_unwritable_output(coupler, tmp_path):
+    s = coupled(tmp_path)
+    p = run("run", s, "-o", tmp_path / "no" / "such" / "dir.h5")
+    assert p.returncode == 1 and "dir.h5" in p.stderr and "cannot write" in p.stderr
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        if os.access(ro, os.W_OK):
+            pytest.skip("running as a user that can write read-only folders")
+        p = run("run", s, "-o", ro / "x.h5")
+        assert p.returncode == 1 and "x.h5" in p.stderr
+    finally:
+        ro.chmod(0o755)
+
+
+def test_usage_errors(coupler, tmp_path):
+    s = coupled(tmp_path)
+    assert run("run", s, "--exchange-every", "0").returncode == 2
+    assert run("run", s, "--checkpoint-test", "abc").returncode == 2
+    p = run("run", s, "-o", tmp_path / "x.h5", "--checkpoint-test", "5")
+    assert p.returncode == 1 and "checkpoint-test" in p.stderr
+
+
+# --- low-Reynolds settling in a periodic box -------------------------------------------
+
+# Sangani & Acrivos, Int. J. Multiphase Flow 8 (1982) 343, Eq. 60 / Table 1
+# (shared/reference/validation-references.md): K(chi) = F / (6 pi mu a U) for a
+# simple cubic array of spheres, chi = D / L.
+SA = [1.000000, 1.418649, 2.012564, 2.331523, 2.564809, 2.584787, 2.873609, 3.340163, 3.536763, 3.504092,
+      3.253622, 2.689757, 2.037769, 1.809341, 1.877347, 1.534685, 0.9034708, 0.2857896, -0.5512626, -1.278724,
+      1.013350, 5.492491, 4.615388, -0.5736023, -2.865924, -4.709215, -6.870076, 0.1455304, 12.51891, 9.742811,
+      -5.566269]
+
+
+def sangani_acrivos(chi):
+    return sum(a * chi ** s for s, a in enumerate(SA))
+
+
+def settling_scene(tmp_path, integrator, end):
+    """Radius 5 cells in a periodic box of 20 cells (chi = 0.5); the fluid
+    carries a body force equal to minus the sphere's net weight (gravity
+    minus buoyancy) spread over the fluid volume, so the total momentum stays
+    zero and the sphere reaches a steady settling velocity relative to the
+    fluid. Re = 2 a v / nu = 0.02."""
+    L, a, dx, nu, rho_f, rho_p, g = 20, 5, 1e-5, 1e-6, 1000.0, 2000.0, 0.981
+    V = 4 / 3 * math.pi * (a * dx) ** 3
+    W = (rho_p - rho_f) * V * g
+    Lsi = L * dx
+    f = W / (Lsi ** 3 - V)
+    text = f"""\
+domain:
+  size: [{Lsi!r}, {Lsi!r}, {Lsi!r}]
+fluid: {{density: {rho_f}, viscosity: {nu}, dx: {dx}, tau: 1.0, body_force: [0, 0, {f!r}]}}
+bodies:
+  - density: {rho_p}
+    spheres:
+      - {{center: [{Lsi / 2!r}, {Lsi / 2!r}, {Lsi / 2!r}], radius: {a * dx!r}}}
+rigid: {{gravity: [0, 0, {-g}], integrator: {integrator}, rtol: 1.0e-10}}
+run: {{end_time: {end}, output_interval: 1.0e-4}}
+"""
+    return scene(tmp_path, f"settle_{integrator}", text), dict(L=Lsi, a=a * dx, V=V, W=W, mu=rho_f * nu, rho_f=rho_f)
+
+
+@pytest.mark.parametrize("integrator", ["verlet", "cvode"])
+def test_periodic_settling_sangani_acrivos(coupler, tmp_path, integrator):
+    # 0.013 s = 780 steps: the velocity is steady from 0.007 s on (relaxation
+    # time of the box L^2/nu = 0.04 s is not needed: the return flow is set by
+    # the body force, the sphere's own relaxation takes ~0.5 ms)
+    s, c = settling_scene(tmp_path, integrator, 0.013)
+    out = tmp_path / "settle.h5"
+    p = run("run", s, "-o", out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f:
+        t = f["/time"][:]
+        late = t >= 0.007
+        v = f["/spheres/velocity"][late, 0, 2].mean()
+        mom = f["/fluid/momentum"][late, 2].mean()
+        mass = f["/fluid/mass"][late].mean()
+    L3 = c["L"] ** 3
+    # superficial velocity of the fluid relative to the sphere (along z):
+    # U = v_s N_fluid / N - sum_fluid u / N, with N_fluid dx^3 = mass / rho_f and
+    # sum_fluid u dx^3 = momentum / rho_f
+    U = v * (mass / c["rho_f"]) / L3 - (mom / c["rho_f"]) / L3
+    # total force on the sphere: hydrodynamic (= -W in steady state) plus the
+    # body force acting on its volume: F = W L^3 / (L^3 - V)
+    F = c["W"] * L3 / (L3 - c["V"])
+    K = F / (6 * math.pi * c["mu"] * c["a"] * abs(U))
+    K_ref = sangani_acrivos(2 * c["a"] / c["L"])
+    assert K_ref == pytest.approx(2.84202, abs=1e-5)
+    re = 2 * c["a"] * abs(v) / 1e-6
+    print(f"\n    settling {integrator}: v = {v:.6g} m/s, U = {U:.6g} m/s, Re = {re:.3g}, K = {K:.5f}, "
+          f"K_SA = {K_ref:.5f}, {100 * (K / K_ref - 1):+.3f}%")
+    assert re < 0.05
+    assert abs(K / K_ref - 1) < 0.01
+    # the settling velocity predicted from K_SA agrees within 1% as well
+    assert abs(U) == pytest.approx(F / (6 * math.pi * c["mu"] * c["a"] * K_ref), rel=0.01)
+
+
+@pytest.mark.validate
+def test_sinking_sphere_scene(coupler, tmp_path):
+    """The default scene (the paper's Fig. 6): the terminal velocity agrees
+    with the Stokes value corrected for the free-slip box (mirror images as a
+    periodic array of period L, Hasimoto 1959) within 3%."""
+    out = tmp_path / "sink.h5"
+    p = run("run", MODELS / "sinking_sphere.yaml", "-o", out, "--quiet")
+    assert p.returncode == 0, p.stderr
+    line = [l for l in p.stdout.splitlines() if "measured / corrected" in l][0]
+    ratio = float(line.rsplit("=", 1)[1])
+    assert abs(ratio - 1) < 0.03
