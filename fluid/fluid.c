@@ -160,18 +160,10 @@ size_t fluid_memory_bytes(const fluid_t *fl)
  * boundary values, and so is exact next to walls and spheres. */
 static void local_moments(const fluid_t *fl, const double *f, size_t i, double *rho, double u[3])
 {
-    const size_t N = fl->g.ncells;
-    double r = 0.0, j[3] = {0.0, 0.0, 0.0};
-    for (int q = 0; q < LB_Q; q++) {
-        const double v = f[(size_t)q * N + i];
-        r += v;
-        for (int a = 0; a < 3; a++) {
-            j[a] += lb_c[q][a] * v;
-        }
-    }
-    *rho = r;
+    double j[3];
+    *rho = lb_moments(f, fl->g.ncells, i, j);
     for (int a = 0; a < 3; a++) {
-        u[a] = (j[a] - 0.5 * fl->kp.force[a]) / r;
+        u[a] = (j[a] - 0.5 * fl->kp.force[a]) / *rho;
     }
 }
 
@@ -284,14 +276,8 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
                 if (fl->flags[i] != CELL_FLUID) {
                     continue;
                 }
-                double r = 0.0, j[3] = {0.0, 0.0, 0.0};
-                for (int q = 0; q < LB_Q; q++) {
-                    const double v = f[(size_t)q * g->ncells + i];
-                    r += v;
-                    for (int a = 0; a < 3; a++) {
-                        j[a] += lb_c[q][a] * v;
-                    }
-                }
+                double j[3];
+                const double r = lb_moments(f, g->ncells, i, j);
                 const double uu = (j[0] * j[0] + j[1] * j[1] + j[2] * j[2]) / (r * r);
                 if (!(r > 0.0) || !isfinite(r) || !(uu <= umax2)) {
                     bad = (long)i > bad ? (long)i : bad;
@@ -306,14 +292,8 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
     const int x = (int)(i % (size_t)g->s[0]);
     const int y = (int)(i / (size_t)g->s[0] % (size_t)g->s[1]);
     const int z = (int)(i / ((size_t)g->s[0] * (size_t)g->s[1]));
-    double r = 0.0, j[3] = {0.0, 0.0, 0.0};
-    for (int q = 0; q < LB_Q; q++) {
-        const double v = f[(size_t)q * g->ncells + i];
-        r += v;
-        for (int a = 0; a < 3; a++) {
-            j[a] += lb_c[q][a] * v;
-        }
-    }
+    double j[3];
+    const double r = lb_moments(f, g->ncells, i, j);
     const double umag = sqrt(j[0] * j[0] + j[1] * j[1] + j[2] * j[2]) / r;
     cause = !isfinite(r) ? 1 : (!(r > 0.0) ? 2 : 3);
     static const char *causes[] = {"", "non-finite density (NaN or Inf)", "non-positive density",

@@ -10,6 +10,8 @@
 #ifndef FLUID_LATTICE_H
 #define FLUID_LATTICE_H
 
+#include <stddef.h>
+
 #define LB_Q 19
 #define LB_HALF 9
 #define LB_CS2 (1.0 / 3.0)
@@ -20,6 +22,22 @@ extern const double lb_w[LB_Q];
 static inline int lb_opposite(int q)
 {
     return q == 0 ? 0 : (q <= LB_HALF ? q + LB_HALF : q - LB_HALF);
+}
+
+/* Density and momentum of the populations of cell i in a structure-of-arrays
+ * field with ncells cells per direction (grid.h). */
+static inline double lb_moments(const double *f, size_t ncells, size_t i, double j[3])
+{
+    double rho = 0.0;
+    j[0] = j[1] = j[2] = 0.0;
+    for (int q = 0; q < LB_Q; q++) {
+        const double v = f[(size_t)q * ncells + i];
+        rho += v;
+        j[0] += lb_c[q][0] * v;
+        j[1] += lb_c[q][1] * v;
+        j[2] += lb_c[q][2] * v;
+    }
+    return rho;
 }
 
 /* Second-order equilibrium (the paper's Eq. 4 with c = 1). */

@@ -24,17 +24,10 @@ static int neighbour(const grid_t *g, const int periodic[3], const int X[3], int
 
 static void moments(const double *f, size_t N, size_t i, double *rho, double u[3])
 {
-    double r = 0.0, j[3] = {0.0, 0.0, 0.0};
-    for (int q = 0; q < LB_Q; q++) {
-        const double v = f[(size_t)q * N + i];
-        r += v;
-        for (int a = 0; a < 3; a++) {
-            j[a] += lb_c[q][a] * v;
-        }
-    }
-    *rho = r;
+    double j[3];
+    *rho = lb_moments(f, N, i, j);
     for (int a = 0; a < 3; a++) {
-        u[a] = j[a] / r;
+        u[a] = j[a] / *rho;
     }
 }
 

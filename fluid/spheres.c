@@ -529,14 +529,8 @@ void spheres_fill(spheres_t *sp, const grid_t *g, double *f, const double *prev)
         sphere_t *p = &sp->s[l->sphere];
         const int q = l->q, o = lb_opposite(q);
         const double *fq = f + (size_t)q * N, *fo = f + (size_t)o * N;
-        double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
-        for (int k = 0; k < LB_Q; k++) {
-            const double v = f[(size_t)k * N + l->xf];
-            rho += v;
-            for (int a = 0; a < 3; a++) {
-                j[a] += lb_c[k][a] * v;
-            }
-        }
+        double j[3];
+        const double rho = lb_moments(f, N, l->xf, j);
         double wr[3], uw[3];
         cross(p->w, l->rw, wr);
         for (int a = 0; a < 3; a++) {

@@ -229,17 +229,10 @@ void walls_free(walls_t *w)
 
 static void moments(const double *f, size_t N, size_t cell, double *rho, double u[3])
 {
-    double r = 0.0, j[3] = {0.0, 0.0, 0.0};
-    for (int q = 0; q < LB_Q; q++) {
-        const double v = f[(size_t)q * N + cell];
-        r += v;
-        for (int a = 0; a < 3; a++) {
-            j[a] += lb_c[q][a] * v;
-        }
-    }
-    *rho = r;
+    double j[3];
+    *rho = lb_moments(f, N, cell, j);
     for (int a = 0; a < 3; a++) {
-        u[a] = j[a] / r;
+        u[a] = j[a] / *rho;
     }
 }
 

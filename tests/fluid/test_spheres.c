@@ -20,6 +20,8 @@
 #include "../../fluid/lattice.h"
 
 #include <CUnit/CUnit.h>
+#include "sangani_acrivos.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,21 +29,6 @@
 
 #define PI 3.14159265358979323846
 
-static const double SA[31] = {1.000000, 1.418649,  2.012564,   2.331523,   2.564809,  2.584787,  2.873609, 3.340163,
-                              3.536763, 3.504092,  3.253622,   2.689757,   2.037769,  1.809341,  1.877347, 1.534685,
-                              0.9034708, 0.2857896, -0.5512626, -1.278724, 1.013350,  5.492491,  4.615388,
-                              -0.5736023, -2.865924, -4.709215, -6.870076, 0.1455304, 12.51891,  9.742811,
-                              -5.566269};
-
-static double sangani_acrivos(double chi)
-{
-    double k = 0.0, p = 1.0;
-    for (int s = 0; s < 31; s++) {
-        k += SA[s] * p;
-        p *= chi;
-    }
-    return k;
-}
 
 static scene_body_t *one_sphere(scene_t *s, const double c[3], double r, motion_t motion)
 {
