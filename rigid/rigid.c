@@ -406,7 +406,7 @@ status_t rigid_step(rigid_t *r, double h)
         return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "step length %g s must be > 0 and finite (t=%.9g s)", h,
                        r->t);
     }
-    if (r->have_prev) {
+    if (r->have_prev && r->cfg.load_correction) {
         load_correction(r);
     }
     status_t st = r->ops->advance(r, r->integ, h);

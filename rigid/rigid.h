@@ -78,6 +78,14 @@ typedef struct {
     /* Limits of connections created when bodies stick (same meaning as in
      * rigid_connection_cfg_t; all 0 = unbreakable). Optional, may stay 0. */
     double fuse_max_normal, fuse_max_shear, fuse_max_torque;
+    /* 1: trapezoidal correction of the held hydrodynamic load at the next
+     * step (second-order coupling for loads that do not respond to the
+     * velocity within a step, e.g. a given drag law). Combined with a fluid
+     * whose force reacts at once to the sphere velocity (moving-wall term)
+     * it acts like Adams-Bashforth 2, whose smaller stability region lets the
+     * coupled rotation of a sphere of a few cells blow up; 0 (the default and
+     * what scenes use): the load of a step is held over that step only. */
+    int load_correction;
 } rigid_config_t;
 
 status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out);

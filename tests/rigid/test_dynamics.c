@@ -204,6 +204,7 @@ static double drag_error(rigid_integrator_t integ, rigid_cvode_method_t meth, do
     cfg.cvode_method = meth;
     cfg.rtol = 1e-11;
     cfg.atol = 1e-13;
+    cfg.load_correction = 1; /* a given drag law: second-order coupling */
     rigid_t *r = NULL;
     if (rigid_create(&cfg, NULL, &r) != STATUS_OK) {
         return INFINITY;
