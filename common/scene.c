@@ -74,6 +74,8 @@ static const cyaml_strval_t REFILL_NAMES[] = {{"equilibrium", REFILL_EQUILIBRIUM
                                               {"extrapolation", REFILL_EXTRAPOLATION}};
 static const cyaml_strval_t FORCE_NAMES[] = {{"momentum_exchange", FORCE_MOMENTUM_EXCHANGE},
                                              {"galilean", FORCE_GALILEAN}};
+static const cyaml_strval_t INITIAL_NAMES[] = {{"uniform", INITIAL_UNIFORM},
+                                                {"plane_channel", INITIAL_PLANE_CHANNEL}};
 static const cyaml_strval_t MOTION_NAMES[] = {
     {"free", MOTION_FREE}, {"fixed", MOTION_FIXED}, {"prescribed", MOTION_PRESCRIBED}};
 static const cyaml_strval_t CONTACT_NAMES[] = {
@@ -126,6 +128,7 @@ typedef struct {
     double *magic;
     double *body_force;
     double *initial_velocity;
+    initial_profile_t *initial_profile;
     boundary_scheme_t *boundary_scheme;
     refill_t *refill;
     force_method_t *force;
@@ -225,6 +228,7 @@ static const cyaml_schema_field_t FLUID_FIELDS[] = {
     CYAML_FIELD_FLOAT_PTR("magic", OPT, raw_fluid_t, magic),
     CYAML_FIELD_SEQUENCE_FIXED("body_force", OPT_PTR, raw_fluid_t, body_force, &SCHEMA_DOUBLE, 3),
     CYAML_FIELD_SEQUENCE_FIXED("initial_velocity", OPT_PTR, raw_fluid_t, initial_velocity, &SCHEMA_DOUBLE, 3),
+    ENUM_FIELD("initial_profile", raw_fluid_t, initial_profile, INITIAL_NAMES),
     ENUM_FIELD("boundary_scheme", raw_fluid_t, boundary_scheme, BOUNDARY_NAMES),
     ENUM_FIELD("refill", raw_fluid_t, refill, REFILL_NAMES),
     ENUM_FIELD("force", raw_fluid_t, force, FORCE_NAMES),
@@ -1271,6 +1275,8 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
     f->magic = opt(r->magic, 3.0 / 16.0);
     opt_vec(f->body_force, r->body_force, 0, 0, 0);
     opt_vec(f->initial_velocity, r->initial_velocity, 0, 0, 0);
+    f->initial_profile = r->initial_profile ? *r->initial_profile : INITIAL_UNIFORM;
+    f->channel_axis = -1;
     f->boundary_scheme = r->boundary_scheme ? *r->boundary_scheme : BOUNDARY_CLI;
     f->refill = r->refill ? *r->refill : REFILL_EXTRAPOLATION;
     f->force_method = r->force ? *r->force : FORCE_GALILEAN;
@@ -1488,6 +1494,58 @@ static void check_speeds(ctx_t *c, const scene_t *s)
     }
 }
 
+/* fluid.initial_profile = plane_channel needs exactly one axis with walls
+ * (no_slip or moving_wall on both faces); the others periodic or free-slip. */
+static void check_initial_profile(ctx_t *c, scene_t *s)
+{
+    scene_fluid_t *f = &s->fluid;
+    if (f->initial_profile != INITIAL_PLANE_CHANNEL) {
+        return;
+    }
+    int axis = -1, nwalled = 0;
+    for (int a = 0; a < 3; a++) {
+        face_type_t t0 = s->domain.faces[2 * a].type, t1 = s->domain.faces[2 * a + 1].type;
+        bool wall0 = t0 == FACE_NO_SLIP || t0 == FACE_MOVING_WALL, wall1 = t1 == FACE_NO_SLIP || t1 == FACE_MOVING_WALL;
+        bool open0 = t0 == FACE_PERIODIC || t0 == FACE_FREE_SLIP, open1 = t1 == FACE_PERIODIC || t1 == FACE_FREE_SLIP;
+        if (wall0 && wall1) {
+            axis = a;
+            nwalled++;
+        } else if (!(open0 && open1)) {
+            nwalled = 99; /* an inlet, an outlet or one wall only */
+        }
+    }
+    if (nwalled != 1) {
+        bad(c, "fluid.initial_profile",
+            "= plane_channel needs exactly one axis bounded by two walls (no_slip or moving_wall) and the other "
+            "faces periodic or free_slip; allowed otherwise: uniform");
+        return;
+    }
+    f->channel_axis = axis;
+}
+
+void scene_initial_velocity(const scene_t *s, const double x[3], double u[3])
+{
+    const scene_fluid_t *f = &s->fluid;
+    for (int a = 0; a < 3; a++) {
+        u[a] = f->initial_velocity[a];
+    }
+    const int n = f->channel_axis;
+    if (f->initial_profile != INITIAL_PLANE_CHANNEL || n < 0) {
+        return;
+    }
+    const double h = s->domain.size[n], xi = fmin(fmax(x[n] / h, 0.0), 1.0);
+    const face_t *lo = &s->domain.faces[2 * n], *hi = &s->domain.faces[2 * n + 1];
+    for (int a = 0; a < 3; a++) {
+        if (a == n) {
+            continue;
+        }
+        double v0 = lo->type == FACE_MOVING_WALL ? lo->velocity[a] : 0.0;
+        double v1 = hi->type == FACE_MOVING_WALL ? hi->velocity[a] : 0.0;
+        /* Couette part + Poiseuille part of the body force: g/(2 nu) x (h - x). */
+        u[a] += v0 + (v1 - v0) * xi + f->body_force[a] / (2.0 * f->density * f->viscosity) * xi * (1.0 - xi) * h * h;
+    }
+}
+
 static bool build_connections(ctx_t *c, const raw_scene_t *r, scene_t *s)
 {
     if (r->connections_count > (unsigned)INT_MAX) {
@@ -1637,6 +1695,9 @@ static void raw_to_scene(ctx_t *c, const raw_scene_t *r, scene_t *s)
     }
     check_spheres(c, s, domain_ok, dx_ok);
     check_overlaps(c, s, domain_ok);
+    if (domain_ok) {
+        check_initial_profile(c, s);
+    }
     if (!build_connections(c, r, s)) {
         return;
     }

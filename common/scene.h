@@ -41,6 +41,11 @@ typedef struct {
     face_t faces[6];
 } scene_domain_t;
 
+/* Initial fluid velocity: uniform (fluid.initial_velocity everywhere) or the
+ * steady laminar plane-channel profile between the two walls of the one
+ * wall-bounded axis (Couette + body-force Poiseuille), plus initial_velocity. */
+typedef enum { INITIAL_UNIFORM, INITIAL_PLANE_CHANNEL } initial_profile_t;
+
 typedef struct {
     double density;             /* kg/m^3 */
     double viscosity;           /* kinematic, m^2/s */
@@ -52,6 +57,8 @@ typedef struct {
     double magic;               /* TRT magic parameter Lambda */
     double body_force[3];       /* force per volume, N/m^3 */
     double initial_velocity[3]; /* m/s */
+    initial_profile_t initial_profile;
+    int channel_axis;           /* INITIAL_PLANE_CHANNEL: the wall-normal axis; -1 otherwise */
     boundary_scheme_t boundary_scheme;
     refill_t refill;
     force_method_t force_method;
@@ -133,6 +140,8 @@ status_t scene_load(const char *path, const char *const *overrides, int noverrid
                     scene_t **out);
 void scene_free(scene_t *s);
 
+/* Initial fluid velocity (m/s) at the point x (m) (fluid.initial_profile). */
+void scene_initial_velocity(const scene_t *s, const double x[3], double u[3]);
 int scene_total_spheres(const scene_t *s);
 const char *face_type_name(face_type_t t);
 

@@ -67,6 +67,7 @@ def shear_domain(size, dx, wall_speed, tau=0.8):
         "  boundary_scheme: cli",
         "  refill: extrapolation",
         "  force: galilean",
+        "  initial_profile: plane_channel   # start in the steady shear flow",
     ])
 
 
@@ -204,6 +205,7 @@ def scene_channel_collision():
         f"  dx: {fmt(dx)}",
         "  tau: 0.8",
         f"  body_force: [{fmt(fb)}, 0, 0]",
+        "  initial_profile: plane_channel   # start in the developed channel flow",
         "bodies:",
         body_yaml("upstream", ca, r, 1000.0),
         body_yaml("downstream", cb, r, 1000.0),

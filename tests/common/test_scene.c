@@ -458,6 +458,13 @@ static void test_wrong_type(void)
                       "allowed: each key once", "error");
     EXPECT_SET_ERROR("run.fields=maybe", "run.fields: wrong type or value", "allowed: one of true | false | yes | no | on | off");
     EXPECT_SET_ERROR("fluid=3", "fluid: wrong type or value", "allowed: a mapping with the keys density");
+    {
+        char *yaml = base_with_line(4, "    z_min: {type: free_slip}");
+        const char *const ov[] = {"fluid.initial_profile=plane_channel"};
+        EXPECT_ERROR(yaml, ov, 1, "fluid.initial_profile", "= plane_channel needs exactly one axis bounded by two walls",
+                     "allowed otherwise: uniform");
+        free(yaml);
+    }
 }
 
 static void test_bad_override(void)

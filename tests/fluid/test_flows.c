@@ -131,6 +131,45 @@ static void test_couette_linear(void)
     CU_ASSERT(channel_error(COLLISION_BGK, 1.3, 16, COUETTE) < 1e-10);
 }
 
+/* Couette + Poiseuille between walls moving at -U and +U with a body force:
+ * the largest error of the x velocity against the analytic steady profile
+ * after n steps, relative to U, for a start from rest or from the
+ * plane_channel initial profile. */
+static double shear_channel_error(initial_profile_t init, int h, long n)
+{
+    scene_t s = test_box(1, 1, h, 0.8, COLLISION_TRT);
+    const double nu = 0.3 / 3.0, U = 0.01, g = 4.0 * nu * U / ((double)h * h);
+    s.domain.faces[4].type = s.domain.faces[5].type = FACE_MOVING_WALL;
+    s.domain.faces[4].velocity[0] = -U;
+    s.domain.faces[5].velocity[0] = U;
+    s.fluid.body_force[0] = g;
+    s.fluid.initial_profile = init;
+    s.fluid.channel_axis = 2;
+    fluid_t *fl = test_fluid(&s);
+    test_run(fl, n);
+    double *u = malloc(sizeof(double) * 3 * h);
+    fluid_moments_lattice(fl, NULL, u);
+    double err = 0.0;
+    for (int k = 0; k < h; k++) {
+        const double xi = (k + 0.5) / h;
+        const double ref = -U + 2.0 * U * xi + g / (2.0 * nu) * xi * (1.0 - xi) * h * h;
+        err = fmax(err, fabs(u[3 * k] - ref) / U);
+    }
+    free(u);
+    fluid_free(fl);
+    return err;
+}
+
+static void test_plane_channel_initial_profile(void)
+{
+    const int h = 24;
+    const double from_profile = shear_channel_error(INITIAL_PLANE_CHANNEL, h, 20);
+    const double from_rest = shear_channel_error(INITIAL_UNIFORM, h, 20);
+    printf("\n  shear channel after 20 steps: from the profile %.2e, from rest %.2e ", from_profile, from_rest);
+    CU_ASSERT(from_profile < 1e-5);
+    CU_ASSERT(from_rest > 0.1);
+}
+
 static void test_free_slip_half_channel(void)
 {
     CU_ASSERT(channel_error(COLLISION_TRT, 0.7, 10, HALF_CHANNEL) < 1e-10);
@@ -267,6 +306,7 @@ void flows_register_tests(int validate)
     CU_add_test(s, "TRT Poiseuille exact for tau 0.6, 1, 2", test_poiseuille_trt_exact);
     CU_add_test(s, "BGK Poiseuille converges at second order", test_poiseuille_bgk_second_order);
     CU_add_test(s, "Couette flow linear", test_couette_linear);
+    CU_add_test(s, "plane_channel initial profile is the steady state", test_plane_channel_initial_profile);
     CU_add_test(s, "free-slip wall: half channel exact (TRT)", test_free_slip_half_channel);
     CU_add_test(s, "free-slip box: plug flow, momentum F V t", test_free_slip_box_plug_flow);
     CU_add_test(s, "Taylor-Green viscosity, second order", test_taylor_green);
