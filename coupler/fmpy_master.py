@@ -3,6 +3,7 @@
 
     coupler/fmpy_master.py SCENE.yaml -o OUT.h5 [--set KEY=VALUE]... [--steps N]
                            [--exchange-every K] [--fluid-fmu F] [--rigid-fmu F]
+                           [--log-fmi-calls FILE] [--quiet]
 
 Runs a scene through fmpy's FMI 2.0 API (FMU2Slave) with the algorithm of the
 C master (coupler/run.c, DESIGN section 2) and writes the same HDF5 layout
@@ -17,7 +18,9 @@ The FMUs are exported from the scene with `build/coupler export` (the same
 --set options) unless given. Every input is connected to the output of the
 other FMU with the same name (error if missing or if type or unit differ).
 Since the same shared libraries receive the same calls with the same values,
-the numbers equal those of the C master bit for bit.
+the numbers equal those of the C master bit for bit. --log-fmi-calls writes
+fmpy's log of every FMI call (label, function, arguments, status); progress
+(step, simulated time, wall time, ETA, MLUPS) goes to a terminal unless --quiet.
 """
 import argparse
 import json
@@ -50,13 +53,14 @@ class MasterError(Exception):
 class Counted:
     """An FMU2Slave whose calls are counted per FMI function."""
 
-    def __init__(self, label, path, tmp):
+    def __init__(self, label, path, tmp, call_log=None):
         self.label = label
         folder = path if os.path.isdir(path) else extract(path, unzipdir=os.path.join(tmp, label))
         self.md = read_model_description(folder)
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.slave = FMU2Slave(guid=self.md.guid, unzipDirectory=folder,
-                               modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=label)
+                               modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=label,
+                               fmiCallLogger=(lambda msg: call_log.write(f"{label} {msg}\n")) if call_log else None)
         self.calls = {}
         self.step_seconds = 0.0
 
@@ -182,6 +186,15 @@ class Reader:
         for name in ("fluid.momentum", "fluid.peak_velocity"):
             for a in "xyz":
                 self._real(f"{name}.{a}", ("diag", name, 0, "xyz".index(a)))
+        self.nbodies_vr = []
+        if rigid is not None:
+            for name in ("rigid.momentum", "rigid.angular_momentum"):
+                for a in "xyz":
+                    self._real(f"{name}.{a}", ("diag", name, 0, "xyz".index(a)))
+            f, vr = find([rigid], "rigid.bodies", "Integer")
+            if f is None:
+                raise MasterError("no FMU publishes the output rigid.bodies that the output file needs")
+            self.nbodies_vr = [vr]
 
     def _real(self, name, dest):
         f, vr = find([self.fluid, self.rigid], name, "Real")
@@ -194,7 +207,8 @@ class Reader:
         row = {q: np.zeros((self.ns, 3)) for q in SPHERE_Q}
         row.update({"conn_force": np.zeros((self.nc, 3)), "conn_torque": np.zeros((self.nc, 3)),
                     "fluid.mass": 0.0, "fluid.kinetic_energy": 0.0, "fluid.max_speed": 0.0,
-                    "fluid.momentum": np.zeros(3), "fluid.peak_velocity": np.zeros(3)})
+                    "fluid.momentum": np.zeros(3), "fluid.peak_velocity": np.zeros(3),
+                    "rigid.momentum": np.zeros(3), "rigid.angular_momentum": np.zeros(3)})
         for f in (self.fluid, self.rigid):
             if f is None or not self.real[id(f)][0]:
                 continue
@@ -204,7 +218,7 @@ class Reader:
                     row[q][i, a] = x
                 elif kind == "conn":
                     row["conn_" + q][i, a] = x
-                elif q in ("fluid.momentum", "fluid.peak_velocity"):
+                elif q in ("fluid.momentum", "fluid.peak_velocity", "rigid.momentum", "rigid.angular_momentum"):
                     row[q][a] = x
                 else:
                     row[q] = x
@@ -213,6 +227,7 @@ class Reader:
             for i, b in zip(self.body_dest, self.rigid.get_integer(self.body_vr)):
                 body[i] = b
         row["body"] = body
+        row["rigid.bodies"] = self.rigid.get_integer(self.nbodies_vr)[0] if self.nbodies_vr else 0
         row["intact"] = np.array(self.rigid.get_boolean(self.intact_vr) if self.intact_vr else [], dtype=np.int32)
         return row
 
@@ -220,7 +235,7 @@ class Reader:
 class Output:
     """The HDF5 layout of coupler/output.h, written with h5py."""
 
-    def __init__(self, path, scene_text, scene_file, scene, dx, dt, tau, grid, ns, nc, pairs, fields_rel):
+    def __init__(self, path, scene_text, scene_file, scene, dx, dt, tau, grid, ns, nc, pairs, fields_rel, bodies):
         self.f = h5py.File(path, "w")
         a = self.f.attrs
         a["scene"] = np.bytes_(scene_text)
@@ -230,7 +245,7 @@ class Output:
         a["dx"], a["dt"], a["tau"] = dx, dt, tau
         a["grid"] = np.array(grid, dtype=float)
         a["ranks"] = 1.0
-        self.ns, self.nc = ns, nc
+        self.ns, self.nc, self.bodies = ns, nc, bodies
         self.sets = {}
         self._series("/time", (), "s")
         self._series("/fluid/mass", (), "kg")
@@ -246,6 +261,10 @@ class Output:
             self._series("/connections/force", (nc, 3), "N")
             self._series("/connections/torque", (nc, 3), "N m")
             self._series("/connections/intact", (nc,), "1 intact, 0 broken", np.int32)
+        if bodies:
+            self._series("/bodies/count", (), "bodies", np.int32)
+            self._series("/bodies/momentum", (3,), "kg m/s")
+            self._series("/bodies/angular_momentum", (3,), "kg m^2/s")
         if fields_rel is not None:
             self.f["/fields"] = h5py.ExternalLink(fields_rel, "/fields")
         self.f.flush()
@@ -275,6 +294,10 @@ class Output:
             self._append("/connections/force", r["conn_force"])
             self._append("/connections/torque", r["conn_torque"])
             self._append("/connections/intact", r["intact"])
+        if self.bodies:
+            self._append("/bodies/count", r["rigid.bodies"])
+            self._append("/bodies/momentum", r["rigid.momentum"])
+            self._append("/bodies/angular_momentum", r["rigid.angular_momentum"])
         self.f.flush()
 
 
@@ -287,20 +310,48 @@ def export(scene_path, sets, folder):
         raise MasterError(f"`coupler export` failed:\n{p.stderr}")
 
 
+class Progress:
+    """One status line on a terminal: step, simulated time, wall time, ETA, MLUPS."""
+
+    def __init__(self, enabled, nsteps, cells_per_step):
+        self.on = enabled
+        self.n, self.cells = nsteps, cells_per_step
+        self.t0 = self.last = wallclock.perf_counter()
+
+    def show(self, step, t, fluid_seconds, final=False):
+        now = wallclock.perf_counter()
+        if not self.on or (not final and now - self.last < 0.5):
+            return
+        self.last = now
+        wall = now - self.t0
+        eta = wall / step * (self.n - step) if step > 0 else 0.0
+        mlups = self.cells * step / max(fluid_seconds, 1e-9) / 1e6
+        sys.stderr.write(f"\r  step {step}/{self.n}  t = {t:.6g} s  wall {wall:.1f} s  ETA {eta:.1f} s  "
+                         f"{mlups:.1f} MLUPS ")
+        if final:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
 def run(args):
     tmp = tempfile.mkdtemp(prefix="fmpy-master-")
-    fluid = rigid = out = None
+    fluid = rigid = out = call_log = None
     try:
+        if args.log_fmi_calls:
+            try:
+                call_log = open(args.log_fmi_calls, "w")
+            except OSError as e:
+                raise MasterError(f"{args.log_fmi_calls}: cannot write the FMI call log: {e.strerror}")
         export_dir = pathlib.Path(tmp) / "export"
         if args.fluid_fmu is None or args.rigid_fmu is None:
             export(args.scene, args.set, export_dir)
-        fluid = Counted("fluid.fmu", args.fluid_fmu or str(export_dir / "fluid.fmu"), tmp)
+        fluid = Counted("fluid.fmu", args.fluid_fmu or str(export_dir / "fluid.fmu"), tmp, call_log)
         scene_text = (pathlib.Path(fluid.slave.unzipDirectory) / "resources" / "scene.yaml").read_text()
         scene = yaml.safe_load(scene_text)
         bodies = scene.get("bodies") or []
         free = [b for b in bodies if b.get("motion", "free") == "free"]
         if free:
-            rigid = Counted("rigid.fmu", args.rigid_fmu or str(export_dir / "rigid.fmu"), tmp)
+            rigid = Counted("rigid.fmu", args.rigid_fmu or str(export_dir / "rigid.fmu"), tmp, call_log)
         src_f, dst_f, errors = connect(rigid, fluid)
         src_r, dst_r, errors_r = connect(fluid, rigid) if rigid else ([], [], [])
         if errors or errors_r:
@@ -334,7 +385,9 @@ def run(args):
             rigid.instantiate(0.0, t_end)
             rigid.exit_init()
         pairs = [c["spheres"] for c in conns]
-        out = Output(args.output, scene_text, str(args.scene), scene, dx, dt, tau, grid, ns, nc, pairs, fields_rel)
+        out = Output(args.output, scene_text, str(args.scene), scene, dx, dt, tau, grid, ns, nc, pairs, fields_rel,
+                     rigid is not None)
+        progress = Progress(sys.stderr.isatty() and not args.quiet, nsteps, float(np.prod(grid)) * k)
         next_out = 0
         row = None
         for n in range(nsteps + 1):
@@ -346,7 +399,9 @@ def run(args):
                 while next_out * oi <= t + 1e-9 * dt:
                     next_out += 1
             if last:
+                progress.show(n, t, fluid.step_seconds, final=True)
                 break
+            progress.show(n, t, fluid.step_seconds)
             if rigid and src_f:
                 fluid.set_real(dst_f, rigid.get_real(src_f))
             fluid.do_step(t, h)
@@ -377,6 +432,8 @@ def run(args):
         for f in (rigid, fluid):
             if f is not None:
                 f.close()
+        if call_log is not None:
+            call_log.close()
         shutil.rmtree(tmp, ignore_errors=True)
 
 
@@ -389,6 +446,8 @@ def main(argv=None):
     p.add_argument("--exchange-every", type=int, default=1, metavar="K", help="LBM steps per communication step")
     p.add_argument("--fluid-fmu")
     p.add_argument("--rigid-fmu")
+    p.add_argument("--log-fmi-calls", metavar="FILE", help="log every FMI call with its arguments and status")
+    p.add_argument("--quiet", action="store_true", help="no progress line")
     args = p.parse_args(argv)
     if args.exchange_every < 1:
         p.error("--exchange-every takes a whole number >= 1")

@@ -29,6 +29,9 @@ enum {
     S_MASS,
     S_MOMENTUM,
     S_ENERGY,
+    S_NBODIES,
+    S_BODY_MOMENTUM,
+    S_BODY_ANGMOM,
     NSERIES
 };
 
@@ -37,7 +40,7 @@ struct output {
     log_t log;
     hid_t file;
     series_t s[NSERIES];
-    int ns, nc;
+    int ns, nc, bodies;
     hsize_t rows;
 };
 
@@ -201,6 +204,7 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
     }
     o->ns = layout->ns;
     o->nc = layout->nc;
+    o->bodies = layout->bodies;
     if ((o->path = strdup(path)) == NULL) {
         output_close(o);
         return log_msg(log, STATUS_FATAL, "output", "out of memory");
@@ -247,6 +251,13 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
         st = status_worst(st, series_create(o, &s[S_CONN_INTACT], "/connections/intact", H5T_NATIVE_INT, nc, 0,
                                             "1 intact, 0 broken"));
     }
+    if (o->bodies) {
+        st = status_worst(st, series_create(o, &s[S_NBODIES], "/bodies/count", H5T_NATIVE_INT, 0, 0, "bodies"));
+        st = status_worst(st, series_create(o, &s[S_BODY_MOMENTUM], "/bodies/momentum", H5T_NATIVE_DOUBLE, 3, 0,
+                                            "kg m/s"));
+        st = status_worst(st, series_create(o, &s[S_BODY_ANGMOM], "/bodies/angular_momentum", H5T_NATIVE_DOUBLE, 3,
+                                            0, "kg m^2/s"));
+    }
     if (layout->fields_file != NULL &&
         H5Lcreate_external(layout->fields_file, "/fields", o->file, "/fields", H5P_DEFAULT, H5P_DEFAULT) < 0) {
         st = status_worst(st, fail(o, "the /fields link"));
@@ -281,6 +292,11 @@ status_t output_row(output_t *o, const output_row_t *r)
         st = status_worst(st, series_append(o, &s[S_CONN_FORCE], r->conn_force));
         st = status_worst(st, series_append(o, &s[S_CONN_TORQUE], r->conn_torque));
         st = status_worst(st, series_append(o, &s[S_CONN_INTACT], r->intact));
+    }
+    if (o->bodies) {
+        st = status_worst(st, series_append(o, &s[S_NBODIES], &r->nbodies));
+        st = status_worst(st, series_append(o, &s[S_BODY_MOMENTUM], r->body_momentum));
+        st = status_worst(st, series_append(o, &s[S_BODY_ANGMOM], r->body_angular_momentum));
     }
     o->rows++;
     if (H5Fflush(o->file, H5F_SCOPE_GLOBAL) < 0) {

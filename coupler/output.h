@@ -8,10 +8,13 @@
  *   /connections/{force,torque}                       [n, nc, 3] N, N m (Eq. 8, 9)
  *   /connections/intact                               [n, nc]    1 until broken (int32)
  *   /fluid/{mass,kinetic_energy} [n], /fluid/momentum [n, 3]     kg, J, kg m/s
+ *   /bodies/count [n] (int32), /bodies/{momentum,angular_momentum} [n, 3]
+ *            number of moving bodies and their total linear momentum
+ *            (kg m/s) and angular momentum about the origin (kg m^2/s)
  *   /fields  an HDF5 external link to /fields of the field file written
  *            by the fluid FMU (only when the scene asks for fields)
  * Only what the scene needs: no /spheres without spheres, no /connections
- * without connections, no /fields link without field output. Every dataset
+ * without connections, no /bodies without moving bodies, no /fields link without field output. Every dataset
  * has a `unit` attribute. Time series are extendible chunked datasets, one
  * row per output step, flushed at every row so that a killed run leaves a
  * readable file up to its last output. hdf5.h appears only in output.c. */
@@ -29,6 +32,7 @@ typedef struct {
     int nc;                  /* connections (0: no /connections) */
     const int *pairs;        /* [nc][2] */
     const char *fields_file; /* NULL: no /fields; else the field file (its name relative to the output's folder) */
+    int bodies;              /* 1: /bodies (a rigid component runs) */
 } output_layout_t;
 
 /* One output row, SI; arrays of ns*3, ns, nc*3 and nc values (NULL when the
@@ -40,6 +44,8 @@ typedef struct {
     const double *conn_force, *conn_torque;
     const int *intact;
     double mass, momentum[3], kinetic_energy;
+    int nbodies;                                         /* layout.bodies only */
+    const double *body_momentum, *body_angular_momentum; /* [3] each, layout.bodies only */
 } output_row_t;
 
 /* Creates the file (truncating) with the root attributes: scene text and

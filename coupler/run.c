@@ -71,7 +71,7 @@ typedef struct {
     /* observation: the row buffer and what fills it */
     double *row;  /* 5 * ns * 3 + 2 * nc * 3 + 8 doubles */
     int *ibody, *iintact;
-    int o_cforce, o_ctorque, o_mass, o_mom, o_ke, o_vmax, o_peak, nrow;
+    int o_cforce, o_ctorque, o_mass, o_mom, o_ke, o_vmax, o_peak, o_bmom, o_bang, nrow;
     gather_t real_fluid, real_rigid, int_rigid, bool_rigid;
     /* settling summary: the velocity along gravity of the one free sphere */
     double *settle_t, *settle_v;
@@ -197,9 +197,11 @@ static status_t plan_observation(master_t *m)
     m->o_ke = m->o_mom + 3;
     m->o_vmax = m->o_ke + 1;
     m->o_peak = m->o_vmax + 1;
-    m->nrow = m->o_peak + 3;
+    m->o_bmom = m->o_peak + 3;
+    m->o_bang = m->o_bmom + 3;
+    m->nrow = m->o_bang + 3;
     m->row = calloc((size_t)m->nrow, sizeof(double));
-    m->ibody = calloc((size_t)ns + 1, sizeof(int));
+    m->ibody = calloc((size_t)ns + 1, sizeof(int)); /* [ns]: the number of moving bodies */
     m->iintact = calloc((size_t)nc + 1, sizeof(int));
     if (m->row == NULL || m->ibody == NULL || m->iintact == NULL) {
         return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
@@ -249,6 +251,17 @@ static status_t plan_observation(master_t *m)
             }
             st = observe(m, name, FMU_REAL, offs[d] + a, 1);
         }
+    }
+    /* the rigid component's totals over its moving bodies (balances of
+     * break-up and sticking) */
+    for (int a = 0; a < 3 && st == STATUS_OK && m->rigid != NULL; a++) {
+        snprintf(name, sizeof name, "rigid.momentum.%c", AXIS[a]);
+        st = observe(m, name, FMU_REAL, m->o_bmom + a, 1);
+        snprintf(name, sizeof name, "rigid.angular_momentum.%c", AXIS[a]);
+        st = status_worst(st, observe(m, name, FMU_REAL, m->o_bang + a, 1));
+    }
+    if (st == STATUS_OK && m->rigid != NULL) {
+        st = observe(m, "rigid.bodies", FMU_INTEGER, ns, 1);
     }
     gather_t *gs[4] = {&m->real_fluid, &m->real_rigid, &m->int_rigid, &m->bool_rigid};
     for (int k = 0; k < 4 && st == STATUS_OK; k++) {
@@ -317,6 +330,9 @@ static status_t write_row(master_t *m, output_t *out, double t)
         .mass = r[m->o_mass],
         .momentum = {r[m->o_mom], r[m->o_mom + 1], r[m->o_mom + 2]},
         .kinetic_energy = r[m->o_ke],
+        .nbodies = m->ibody[m->ns],
+        .body_momentum = r + m->o_bmom,
+        .body_angular_momentum = r + m->o_bang,
     };
     return output_row(out, &row);
 }
@@ -665,7 +681,7 @@ static status_t checkpoint_record(master_t *m, checkpoint_t *c, long n)
     }
     memcpy(r, m->row, sizeof(double) * (size_t)m->nrow);
     for (int i = 0; i < m->ns; i++) {
-        r[m->nrow + i] = m->ibody[i];
+        r[m->nrow + i] = m->ibody[i]; /* (the body count is a function of these) */
     }
     for (int i = 0; i < m->nc; i++) {
         r[m->nrow + m->ns + i] = m->iintact[i];
@@ -754,7 +770,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         pairs[2 * k] = scene->connections[k].a;
         pairs[2 * k + 1] = scene->connections[k].b;
     }
-    output_layout_t layout = {m.ns, m.nc, pairs, fields_rel};
+    output_layout_t layout = {m.ns, m.nc, pairs, fields_rel, m.rigid != NULL};
     units_t shown = m.un;
     shown.dt = dt; /* the time base of the run (may differ from units_derive's dt in the last bit) */
     st = output_open(opt->output, scene, &shown, &layout, log, &out);

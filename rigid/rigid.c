@@ -442,6 +442,15 @@ status_t rigid_step(rigid_t *r, double h)
 double rigid_time(const rigid_t *r) { return r->t; }
 int rigid_nbodies(const rigid_t *r) { return r->nbodies; }
 int rigid_nspheres(const rigid_t *r) { return r->nspheres; }
+
+int rigid_nfree_bodies(const rigid_t *r)
+{
+    int n = 0;
+    for (int k = 0; k < r->nbodies; k++) {
+        n += !r->bodies[k].fixed;
+    }
+    return n;
+}
 int rigid_nconnections(const rigid_t *r) { return r->nconn; }
 
 int rigid_sphere_body(const rigid_t *r, int sphere)

@@ -110,6 +110,7 @@ double rigid_time(const rigid_t *r);
 void rigid_get_sphere(const rigid_t *r, int sphere, double pos[3], double vel[3], double omega[3]);
 int rigid_sphere_body(const rigid_t *r, int sphere);
 int rigid_nbodies(const rigid_t *r);
+int rigid_nfree_bodies(const rigid_t *r); /* bodies that move (not fixed) */
 int rigid_nspheres(const rigid_t *r);
 
 /* Connections: the first cfg->nconnections keep their cfg index; connections

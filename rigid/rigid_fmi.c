@@ -17,6 +17,10 @@
  *               sphere[i].body (Integer: the current body id; ids start as
  *               the scene body index and change when bodies split or merge)
  *               connection[k].force|torque.x|y|z, connection[k].intact
+ *               rigid.bodies (Integer: number of moving bodies),
+ *               rigid.momentum.x|y|z, rigid.angular_momentum.x|y|z (totals
+ *               over the moving bodies, the latter about the world origin:
+ *               the balances of break-up and sticking)
  * Connections created when bodies stick (beyond the scene's list) are not
  * exposed. A scene without free bodies needs no rigid FMU (variables()
  * answers STATUS_DISCARD). fmi2DoStep(h) is rigid_step(h) with any h > 0. */
@@ -36,7 +40,10 @@ enum {
     Q_CONN_FORCE,
     Q_CONN_TORQUE,
     Q_CONN_INTACT,
-    Q_BODY
+    Q_BODY,
+    Q_NBODIES,
+    Q_MOMENTUM,
+    Q_ANGULAR_MOMENTUM
 };
 
 static const char *const AXIS = "xyz";
@@ -163,6 +170,29 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
         v->what = Q_CONN_INTACT;
         v->index = k;
     }
+    fmi_var_t *nb = fmi_vars_add(&vs, FMI_INTEGER, FMI_OUTPUT, NULL, "rigid.bodies");
+    if (nb == NULL) {
+        st = oom(log);
+        goto done;
+    }
+    snprintf(nb->description, sizeof nb->description, "number of moving bodies (changes on break-up and sticking)");
+    nb->what = Q_NBODIES;
+    for (int a = 0; a < 3; a++) {
+        fmi_var_t *p = fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, "kg.m/s", "rigid.momentum.%c", AXIS[a]);
+        fmi_var_t *l = p != NULL ? fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, "kg.m2/s", "rigid.angular_momentum.%c",
+                                                AXIS[a])
+                                 : NULL;
+        if (l == NULL) {
+            st = oom(log);
+            goto done;
+        }
+        snprintf(p->description, sizeof p->description, "linear momentum of all moving bodies, %c component", AXIS[a]);
+        snprintf(l->description, sizeof l->description,
+                 "angular momentum of all moving bodies about the origin, %c component", AXIS[a]);
+        p->what = Q_MOMENTUM;
+        l->what = Q_ANGULAR_MOMENTUM;
+        p->axis = l->axis = a;
+    }
 done:
     if (st != STATUS_OK) {
         fmi_vars_free(&vs);
@@ -242,6 +272,11 @@ static void rigid_fmi_outputs(void *comp, const fmi_vars_t *vars, double *values
         int intact = 0;
         if (v->what == Q_BODY) {
             values[j] = rigid_sphere_body(m->r, v->index);
+        } else if (v->what == Q_NBODIES) {
+            values[j] = rigid_nfree_bodies(m->r);
+        } else if (v->what == Q_MOMENTUM || v->what == Q_ANGULAR_MOMENTUM) {
+            rigid_momentum(m->r, q[0], q[1]);
+            values[j] = q[v->what == Q_MOMENTUM ? 0 : 1][v->axis];
         } else if (v->what <= Q_ANGULAR_VELOCITY) {
             rigid_get_sphere(m->r, v->index, q[0], q[1], q[2]);
             values[j] = q[v->what - Q_POSITION][v->axis];

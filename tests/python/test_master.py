@@ -93,6 +93,12 @@ def test_coupled_layout_units_and_fields(coupler, tmp_path):
         assert f["/connections/force"].shape == (n, 1, 3) and f["/connections/force"].attrs["unit"].decode() == "N"
         assert f["/connections/torque"].attrs["unit"].decode() == "N m"
         assert f["/connections/intact"][:].tolist() == [[1]] * n
+        # /bodies: one moving body (the fixed sphere is not counted); its momentum is M v of the pair's centre
+        assert f["/bodies/count"][:].tolist() == [1] * n and f["/bodies/count"].dtype == np.int32
+        assert f["/bodies/momentum"].attrs["unit"].decode() == "kg m/s"
+        pz, vz = f["/bodies/momentum"][1:, 2], f["/spheres/velocity"][1:, :2, 2].mean(axis=1)
+        mass = pz / vz
+        assert np.all(mass > 0) and np.ptp(mass) < 1e-9 * mass[0]
         # the fixed sphere stays where it is, its position published by the fluid
         assert np.all(f["/spheres/position"][:, 2] == [5.0e-5, 5.0e-5, 4.0e-5])
         assert np.all(f["/spheres/velocity"][:, 2] == 0)
@@ -120,7 +126,7 @@ def test_only_what_the_scene_needs(coupler, tmp_path):
     assert p.returncode == 0, p.stderr
     with h5py.File(out, "r") as f:
         assert "spheres" in f and "connections" not in f and "fields" not in f
-        assert "fmi_calls_rigid" in f.attrs
+        assert "fmi_calls_rigid" in f.attrs and "bodies" in f
     assert not (tmp_path / "free_fields.h5").exists()
     # a prescribed sphere: the fluid runs alone (no rigid.fmu), the sphere moves as prescribed
     out = tmp_path / "pres.h5"
@@ -129,7 +135,7 @@ def test_only_what_the_scene_needs(coupler, tmp_path):
     assert p.returncode == 0, p.stderr
     assert "no rigid.fmu" in p.stdout
     with h5py.File(out, "r") as f:
-        assert "fmi_calls_rigid" not in f.attrs and "connections" not in f
+        assert "fmi_calls_rigid" not in f.attrs and "connections" not in f and "bodies" not in f
         x = f["/spheres/position"][:, 0, 0]
         t = f["/time"][:]
         assert x == pytest.approx(8.0e-5 + 1.0e-3 * t, abs=1e-12)
@@ -171,7 +177,9 @@ def test_fmpy_master_equals_c_coupler(coupler, tmp_path):
     c_out, py_out = tmp_path / "c.h5", tmp_path / "py.h5"
     p = run("run", s, "-o", c_out, "--quiet")
     assert p.returncode == 0, p.stderr
-    q = subprocess.run([str(PY), str(ROOT / "coupler" / "fmpy_master.py"), str(s), "-o", str(py_out)],
+    log = tmp_path / "fmpy_calls.log"
+    q = subprocess.run([str(PY), str(ROOT / "coupler" / "fmpy_master.py"), str(s), "-o", str(py_out),
+                        "--log-fmi-calls", str(log)],
                        capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS="2"), timeout=600)
     assert q.returncode == 0, q.stderr
     with h5py.File(c_out, "r") as a, h5py.File(py_out, "r") as b:
@@ -185,6 +193,13 @@ def test_fmpy_master_equals_c_coupler(coupler, tmp_path):
         assert np.array_equal(a["/fields/000100/velocity"][:], b["/fields/000100/velocity"][:])
         assert json.loads(a.attrs["fmi_calls_rigid"])["fmi2DoStep"] == json.loads(b.attrs["fmi_calls_rigid"])[
             "fmi2DoStep"]
+        # the call log: one line per counted call, every doStep logged with its status
+        lines = log.read_text().splitlines()
+        calls = {**{f"fluid.fmu {k}": v for k, v in json.loads(b.attrs["fmi_calls_fluid"]).items()},
+                 **{f"rigid.fmu {k}": v for k, v in json.loads(b.attrs["fmi_calls_rigid"]).items()}}
+        for key, count in calls.items():
+            assert sum(1 for l in lines if l.startswith(key + "(")) == count, key
+        assert all(l.endswith("-> OK") for l in lines if "fmi2DoStep(" in l)
 
 
 def test_plot_script(coupler, tmp_path):
