@@ -84,7 +84,10 @@ report: deps
 # for its field snapshots (common/h5fields.c).
 FMU_FLUID_SRC := common/status.c common/scene.c common/fmi_vars.c common/h5fields.c $(FLUID_SRC) fluid/fluid_fmi.c
 FMU_RIGID_SRC := common/status.c common/scene.c common/fmi_vars.c $(RIGID_SRC) rigid/rigid_fmi.c
-FMU_CFLAGS    := $(CFLAGS) -fvisibility=hidden
+# FMUs travel to other machines: the x86-64 baseline (SSE2) instead of
+# -march=native (the kernel is memory-bound; see README "FMUs").
+FMU_ARCH      := $(if $(filter x86_64,$(shell uname -m)),-march=x86-64 -mtune=generic,)
+FMU_CFLAGS    := $(filter-out -march=native,$(CFLAGS)) $(FMU_ARCH) -fvisibility=hidden
 FMU_LDFLAGS   := -shared -Wl,-z,defs -Wl,-z,nodelete
 FMU_FLUID_LIBS := $(shell pkg-config --libs $(HDF5) libcyaml yaml-0.1 2>/dev/null) -lm
 FMU_RIGID_LIBS := $(shell pkg-config --libs libcyaml yaml-0.1 2>/dev/null) -lsundials_cvode -lsundials_nvecserial -lm

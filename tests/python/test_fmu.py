@@ -6,7 +6,9 @@ so the whole file runs in seconds."""
 import ctypes
 import math
 import pathlib
+import platform
 import shutil
+import subprocess
 import xml.etree.ElementTree as ET
 import zipfile
 
@@ -95,6 +97,20 @@ def test_export_writes_both_fmus_with_scene_and_library(fmus):
             assert f"binaries/linux64/{name}.so" in names
             assert "resources/scene.yaml" in names
             assert "bodies:" in z.read("resources/scene.yaml").decode()
+
+
+@pytest.mark.skipif(platform.machine() != "x86_64" or shutil.which("objdump") is None,
+                    reason="the portability check reads x86-64 machine code with objdump")
+def test_fmu_binaries_run_on_any_x86_64(fmus, tmp_path):
+    # built for the x86-64 baseline, not -march=native: no AVX (ymm/zmm) instructions, which a
+    # CPU without AVX would trap on
+    for name in ("fluid", "rigid"):
+        with zipfile.ZipFile(fmus["free"] / f"{name}.fmu") as z:
+            so = tmp_path / f"{name}.so"
+            so.write_bytes(z.read(f"binaries/linux64/{name}.so"))
+        asm = subprocess.run(["objdump", "-d", str(so)], capture_output=True, text=True, check=True).stdout
+        assert "fmi2DoStep" in asm
+        assert "%ymm" not in asm and "%zmm" not in asm, name
 
 
 def test_scene_without_free_bodies_has_no_rigid_fmu(fmus):
