@@ -169,6 +169,87 @@ void fluid_free(fluid_t *fl)
     free(fl);
 }
 
+/* The period-2 watch. Explicit coupling feeds the particle velocity of one
+ * step into the boundary force of the next; for a light or small particle
+ * this force reacts so strongly that the velocity overshoots and the load
+ * flips every step (an added-mass type instability). For each free sphere
+ * the delivered load (averaged when fluid.force_averaging is on) is watched:
+ * the second difference d_n = L_n - 2 L_(n-1) + L_(n-2) of a period-2
+ * signal of amplitude A is +-4A with alternating sign, of a smooth signal
+ * about 0. WATCH_STEPS steps in a row with d_n . d_(n-1) < 0 and |d_n|/4
+ * above WATCH_AMPLITUDE of the mean load |L_n + L_(n-1)|/2 (force, or
+ * torque / radius) raise one warning per sphere, with the remedies; the
+ * start-up transient of a particle released from rest flips too but decays
+ * within a few steps. */
+enum { WATCH_STEPS = 20 };
+static const double WATCH_AMPLITUDE = 0.02;
+
+static status_t watch_period_two(fluid_t *fl)
+{
+    status_t st = STATUS_OK;
+    for (int i = 0; i < fl->spheres.n; i++) {
+        sphere_t *p = &fl->spheres.s[i];
+        if (p->motion != MOTION_FREE || p->warned) {
+            continue;
+        }
+        double load[6];
+        fluid_sphere_load_lattice(fl, i, load, load + 3);
+        if (fl->spheres.averaging && fl->step > 1) {
+            for (int a = 0; a < 3; a++) {
+                load[a] = 0.5 * (p->f[a] + p->fprev[a]);
+                load[3 + a] = 0.5 * (p->t[a] + p->tprev[a]);
+            }
+        }
+        memmove(p->hist[1], p->hist[0], 2 * sizeof p->hist[0]);
+        memcpy(p->hist[0], load, sizeof load);
+        if (p->nhist < 3) {
+            p->nhist++;
+            continue;
+        }
+        /* force and torque/radius, both against one scale: the mean load
+         * S = max(|F|, |T|/r), so that a torque that is about zero (a
+         * settling sphere) or a force that is about zero (a sphere turning
+         * in shear) does not count its round-off noise as an oscillation */
+        double d[6], mf = 0.0, mt = 0.0;
+        for (int a = 0; a < 6; a++) {
+            const double w = a < 3 ? 1.0 : 1.0 / p->r;
+            const double m = 0.5 * (p->hist[0][a] + p->hist[1][a]) * w;
+            d[a] = (p->hist[0][a] - 2.0 * p->hist[1][a] + p->hist[2][a]) * w;
+            *(a < 3 ? &mf : &mt) += m * m;
+        }
+        const double scale = fmax(sqrt(fmax(mf, mt)), 1e-300);
+        int alternating = 0;
+        double amp = 0.0;
+        for (int o = 0; o < 6; o += 3) {
+            double d2 = 0.0, dot = 0.0;
+            for (int a = o; a < o + 3; a++) {
+                d2 += d[a] * d[a];
+                dot += d[a] * p->hist_d[a];
+                p->hist_d[a] = d[a];
+            }
+            const double rel = 0.25 * sqrt(d2) / scale;
+            if (dot < 0.0 && rel > WATCH_AMPLITUDE) {
+                alternating = 1;
+                amp = fmax(amp, rel);
+            }
+        }
+        p->nalt = alternating ? p->nalt + 1 : 0;
+        if (p->nalt >= WATCH_STEPS) {
+            p->warned = 1;
+            const double dx = fl->units.dx;
+            st = status_worst(st, log_msg(&fl->log, STATUS_WARNING, "fluid",
+                "%s: sphere %d (radius %.3g cells, density ratio %.3g) at (%.4g, %.4g, %.4g) m, step %ld (t = %.6g s): "
+                "its hydrodynamic load has alternated every step for %d steps (period-2 oscillation, amplitude %.3g%% "
+                "of the mean load): explicit coupling of a light or small particle, whose boundary force reacts at once "
+                "to its velocity (an added-mass type instability). Remedies: fluid.force_averaging: true (averages the "
+                "load over two steps), more cells per radius (fluid.dx), a smaller time step (fluid.tau)",
+                fl->path, i, p->r, p->density_ratio, (p->c[0] - 0.5) * dx, (p->c[1] - 0.5) * dx,
+                (p->c[2] - 0.5) * dx, fl->step, fluid_time(fl), WATCH_STEPS, 100.0 * amp));
+        }
+    }
+    return st;
+}
+
 status_t fluid_step(fluid_t *fl)
 {
     double *src = fl->f[fl->cur];
@@ -187,7 +268,7 @@ status_t fluid_step(fluid_t *fl)
     kernel_stream_collide(&fl->g, &fl->kp, src, dst);
     fl->cur = 1 - fl->cur;
     fl->step++;
-    return STATUS_OK;
+    return fl->spheres.n > 0 ? watch_period_two(fl) : STATUS_OK;
 }
 
 long fluid_step_count(const fluid_t *fl) { return fl->step; }

@@ -151,6 +151,7 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
             sphere_t *p = &sp->s[k];
             p->body = b;
             p->motion = body->motion;
+            p->density_ratio = body->density / s->fluid.density;
             p->r = body->spheres[i].radius / u->dx;
             double rel[3];
             for (int a = 0; a < 3; a++) {
