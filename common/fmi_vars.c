@@ -15,7 +15,7 @@ const fmi_unit_t fmi_units[] = {
     {"m", 0, 1, 0, 0},        {"m/s", 0, 1, -1, 0},    {"rad/s", 0, 0, -1, 1},   {"N", 1, 1, -2, 0},
     {"N.m", 1, 2, -2, 0},     {"kg/m3", 1, -3, 0, 0},  {"m2/s", 0, 2, -1, 0},    {"s", 0, 0, 1, 0},
     {"m/s2", 0, 1, -2, 0},    {"N/m3", 1, -2, -2, 0},  {"kg", 1, 0, 0, 0},      {"J", 1, 2, -2, 0},
-    {"kg.m/s", 1, 1, -1, 0},  {"kg.m2/s", 1, 2, -1, 0},
+    {"kg.m/s", 1, 1, -1, 0},  {"kg.m2/s", 1, 2, -1, 0},  {"kg/s", 1, 0, -1, 0},
 };
 const char *const fmi_log_categories[FMI_NCATS][2] = {
     {"logStatusWarning", "messages with status fmi2Warning"},

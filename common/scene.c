@@ -76,6 +76,7 @@ static const cyaml_strval_t FORCE_NAMES[] = {{"momentum_exchange", FORCE_MOMENTU
                                              {"galilean", FORCE_GALILEAN}};
 static const cyaml_strval_t INITIAL_NAMES[] = {{"uniform", INITIAL_UNIFORM},
                                                 {"plane_channel", INITIAL_PLANE_CHANNEL}};
+static const cyaml_strval_t COUPLING_NAMES[] = {{"explicit", COUPLING_EXPLICIT}, {"implicit", COUPLING_IMPLICIT}};
 static const cyaml_strval_t MOTION_NAMES[] = {
     {"free", MOTION_FREE}, {"fixed", MOTION_FIXED}, {"prescribed", MOTION_PRESCRIBED}};
 static const cyaml_strval_t CONTACT_NAMES[] = {
@@ -157,6 +158,7 @@ typedef struct {
 
 typedef struct {
     integrator_t *integrator;
+    coupling_t *coupling;
     cvode_method_t *cvode_method;
     linsol_t *linear_solver;
     double *rtol, *atol, *substeps;
@@ -282,6 +284,7 @@ static const cyaml_schema_field_t CONTACTS_FIELDS[] = {
 
 static const cyaml_schema_field_t RIGID_FIELDS[] = {
     ENUM_FIELD("integrator", raw_rigid_t, integrator, INTEGRATOR_NAMES),
+    ENUM_FIELD("coupling", raw_rigid_t, coupling, COUPLING_NAMES),
     ENUM_FIELD("cvode_method", raw_rigid_t, cvode_method, CVODE_METHOD_NAMES),
     ENUM_FIELD("linear_solver", raw_rigid_t, linear_solver, LINSOL_NAMES),
     CYAML_FIELD_FLOAT_PTR("rtol", OPT, raw_rigid_t, rtol),
@@ -1634,6 +1637,7 @@ static void build_rigid(ctx_t *c, const raw_rigid_t *r, scene_rigid_t *g)
         r = &none;
     }
     g->integrator = r->integrator ? *r->integrator : INTEGRATOR_VERLET;
+    g->coupling = r->coupling ? *r->coupling : COUPLING_EXPLICIT;
     g->cvode_method = r->cvode_method ? *r->cvode_method : CVODE_BDF;
     g->linear_solver = r->linear_solver ? *r->linear_solver : LINSOL_DENSE;
     g->rtol = opt(r->rtol, 1e-8);

@@ -103,8 +103,15 @@ typedef enum { INTEGRATOR_VERLET, INTEGRATOR_CVODE } integrator_t;
 typedef enum { CVODE_ADAMS, CVODE_BDF } cvode_method_t;
 typedef enum { LINSOL_DENSE, LINSOL_SPGMR } linsol_t;
 
+/* Hydrodynamic coupling: explicit (the load of the last fluid step held over
+ * the rigid step) or implicit (the fluid also publishes each sphere's drag
+ * coefficients, the load's instantaneous response to the sphere velocity,
+ * and the rigid step treats that part implicitly; README "Implicit coupling"). */
+typedef enum { COUPLING_EXPLICIT, COUPLING_IMPLICIT } coupling_t;
+
 typedef struct {
     integrator_t integrator;
+    coupling_t coupling;
     cvode_method_t cvode_method;
     linsol_t linear_solver;
     double rtol, atol;

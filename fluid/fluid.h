@@ -57,6 +57,11 @@ void fluid_get_sphere(const fluid_t *fl, int i, double c[3], double v[3], double
 /* Hydrodynamic force (N) and torque about the centre (N m) of the last step,
  * averaged over the last two steps when fluid.force_averaging is set. */
 void fluid_sphere_load(const fluid_t *fl, int i, double force[3], double torque[3]);
+/* Drag coefficients of sphere i in the last step (SI): the isotropic part of
+ * the load's instantaneous response to the sphere's motion through the
+ * moving-wall term of its boundary links, zt = -dF/dv (kg/s) and
+ * zr = -dT/dw (kg m^2/s); for rigid.coupling = implicit. */
+void fluid_sphere_drag(const fluid_t *fl, int i, double *zt, double *zr);
 /* The same, lattice units, never averaged (momentum per step). */
 void fluid_sphere_load_lattice(const fluid_t *fl, int i, double force[3], double torque[3]);
 

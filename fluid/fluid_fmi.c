@@ -14,6 +14,9 @@
  *   outputs     sphere[i].force|torque.x|y|z for every sphere: the
  *               hydrodynamic force and the torque about the sphere centre of
  *               the last LBM step (averaged when fluid.force_averaging is set)
+ *               sphere[i].drag_coefficient (kg/s), .rotational_drag_coefficient
+ *               (kg.m2/s) for spheres of free bodies when rigid.coupling =
+ *               implicit: the load's instantaneous response -dF/dv, -dT/dw
  *               sphere[i].position|velocity|angular_velocity.x|y|z for the
  *               spheres that are not inputs (fixed and prescribed bodies: the
  *               fluid moves them, so it publishes where they are at the FMU's
@@ -50,6 +53,8 @@ enum {
     Q_ANGULAR_VELOCITY,
     Q_FORCE,
     Q_TORQUE,
+    Q_DRAG,
+    Q_ROTATIONAL_DRAG,
     Q_PARAMETER,
     Q_FIELDS_FILE,
     Q_MASS,
@@ -177,6 +182,28 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
             (st = add_vector(&vs, FMI_OUTPUT, Q_TORQUE, i, "torque", "N.m", NULL,
                              "hydrodynamic torque about the centre", log))) {
             goto done;
+        }
+    }
+    for (int b = 0, i = 0; b < s->nbodies && s->rigid.coupling == COUPLING_IMPLICIT; b++) {
+        for (int k = 0; k < s->bodies[b].nspheres; k++, i++) {
+            if (s->bodies[b].motion != MOTION_FREE) {
+                continue;
+            }
+            fmi_var_t *zt = fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, "kg/s", "sphere[%d].drag_coefficient", i);
+            fmi_var_t *zr = zt != NULL ? fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, "kg.m2/s",
+                                                      "sphere[%d].rotational_drag_coefficient", i)
+                                       : NULL;
+            if (zr == NULL) {
+                st = oom(log);
+                goto done;
+            }
+            snprintf(zt->description, sizeof zt->description,
+                     "-dF/dv of sphere %d in the last LBM step (implicit coupling)", i);
+            snprintf(zr->description, sizeof zr->description,
+                     "-dT/dw of sphere %d in the last LBM step (implicit coupling)", i);
+            zt->what = Q_DRAG;
+            zr->what = Q_ROTATIONAL_DRAG;
+            zt->index = zr->index = i;
         }
     }
     for (int b = 0, i = 0; b < s->nbodies; b++) {
@@ -451,6 +478,9 @@ static void fluid_fmi_outputs(void *comp, const fmi_vars_t *vars, double *values
         if (v->what == Q_FORCE || v->what == Q_TORQUE) {
             fluid_sphere_load(m->fl, v->index, q[0], q[1]);
             values[j] = q[v->what - Q_FORCE][v->axis];
+        } else if (v->what == Q_DRAG || v->what == Q_ROTATIONAL_DRAG) {
+            fluid_sphere_drag(m->fl, v->index, &q[0][0], &q[0][1]);
+            values[j] = q[0][v->what - Q_DRAG];
         } else {
             moved_sphere(m->scene, v->index, fluid_time(m->fl), q[0], q[1], q[2]);
             values[j] = q[v->what - Q_POSITION][v->axis];

@@ -316,6 +316,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, 
         memcpy(sp->s[k].tprev, sp->s[k].t, sizeof sp->s[k].t);
         memset(sp->s[k].f, 0, sizeof sp->s[k].f);
         memset(sp->s[k].t, 0, sizeof sp->s[k].t);
+        sp->s[k].zt = sp->s[k].zr = 0.0;
     }
     mark_t *marks = NULL;
     size_t nm = 0, cap = 0;
@@ -575,5 +576,14 @@ void spheres_fill(spheres_t *sp, const grid_t *g, double *f, const double *prev)
             p->f[a] += df[a];
             p->t[a] += t[a];
         }
+        /* the moving-wall term makes df react at once to the wall velocity:
+         * d(df)/d(u_w) = -A 6 w rho c c^T; its isotropic parts for v and for
+         * w (u_w = v + w x r_w, so c . u_w = c . v + w . (r_w x c)) */
+        const double cq[3] = {lb_c[q][0], lb_c[q][1], lb_c[q][2]};
+        double rc[3];
+        cross(l->rw, cq, rc);
+        const double k = A * 6.0 * lb_w[q] * rho / 3.0;
+        p->zt += k * (cq[0] * cq[0] + cq[1] * cq[1] + cq[2] * cq[2]);
+        p->zr += k * (rc[0] * rc[0] + rc[1] * rc[1] + rc[2] * rc[2]);
     }
 }

@@ -35,10 +35,12 @@ typedef struct {
     double vbody[3];         /* prescribed: velocity of the body centroid */
     double f[3], t[3];       /* load of the last step: force, torque about c */
     double fprev[3], tprev[3];
+    double zt, zr;           /* drag coefficients of the last step: -dF/dv and -dT/dw (isotropic parts) */
     double density_ratio;    /* particle / fluid density */
     /* period-2 watch (fluid.c): the last three delivered loads (force,
      * torque), steps in a row that alternate, warned once */
     double hist[3][6], hist_d[6]; /* loads L_n, L_(n-1), L_(n-2); the last second difference */
+    double amp0;                  /* amplitude at the start of the current alternating run */
     int nhist, nalt, warned;
 } sphere_t;
 

@@ -63,8 +63,8 @@ int rigid_forces(rigid_t *r, const rigid_body_t *bodies, rigid_contact_info_t *w
         }
         rv_cross(arm, fg, tg);
         for (int a = 0; a < 3; a++) {
-            r->sf[3 * i + a] = s->load_f[a] + fg[a];
-            r->st[3 * i + a] = s->load_t[a] + tg[a];
+            r->sf[3 * i + a] = s->load_f[a] + s->imp_f[a] + fg[a];
+            r->st[3 * i + a] = s->load_t[a] + s->imp_t[a] + tg[a];
         }
     }
     int bad = rigid_contacts(r, bodies, (const double (*)[3])r->sx, worst);

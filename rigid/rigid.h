@@ -103,6 +103,15 @@ void rigid_free(rigid_t *r);
  * sphere, held over the next rigid_step (see README: trapezoidal correction). */
 void rigid_set_sphere_load(rigid_t *r, int sphere, const double force[3], const double torque[3]);
 
+/* Implicit coupling (optional): the load's instantaneous response to the
+ * sphere's motion, zt = -dF/dv (kg/s) and zr = -dT/dw (kg m^2/s), both >= 0
+ * (0: explicit, the default). rigid_step then predicts each body's change of
+ * velocity and angular velocity over the step from the linearised load
+ * F_i - zt (dV + dW x d_i), T_i - zr dW with the other forces at the start
+ * (one 6x6 solve per body) and holds the load corrected by that change: a
+ * light particle no longer overshoots (README "Implicit coupling"). */
+void rigid_set_sphere_drag(rigid_t *r, int sphere, double zt, double zr);
+
 /* Advances one communication step of length h > 0 in cfg->substeps sub-steps. */
 status_t rigid_step(rigid_t *r, double h);
 double rigid_time(const rigid_t *r);

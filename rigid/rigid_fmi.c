@@ -13,6 +13,8 @@
  *   parameters  rigid.gravity.x|y|z, rigid.substeps, rigid.rtol, rigid.atol,
  *               fluid.density (buoyancy)
  *   inputs      sphere[i].force|torque.x|y|z (hydrodynamic; start 0)
+ *               sphere[i].drag_coefficient (kg/s), .rotational_drag_coefficient
+ *               (kg.m2/s), only when rigid.coupling = implicit (start 0)
  *   outputs     sphere[i].position|velocity|angular_velocity.x|y|z,
  *               sphere[i].body (Integer: the current body id; ids start as
  *               the scene body index and change when bodies split or merge)
@@ -43,7 +45,9 @@ enum {
     Q_BODY,
     Q_NBODIES,
     Q_MOMENTUM,
-    Q_ANGULAR_MOMENTUM
+    Q_ANGULAR_MOMENTUM,
+    Q_DRAG,
+    Q_ROTATIONAL_DRAG
 };
 
 static const char *const AXIS = "xyz";
@@ -52,6 +56,7 @@ typedef struct {
     rigid_t *r;
     int ns;
     double *load; /* per sphere: force[3], torque[3] */
+    double *drag; /* per sphere: zt, zr (implicit coupling) */
 } rigid_fmi_t;
 
 static status_t oom(const log_t *log)
@@ -128,6 +133,22 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                                  "hydrodynamic torque about the centre", log))) {
                 goto done;
             }
+            if (s->rigid.coupling != COUPLING_IMPLICIT) {
+                continue;
+            }
+            fmi_var_t *zt = fmi_vars_add(&vs, FMI_REAL, FMI_INPUT, "kg/s", "sphere[%d].drag_coefficient", i);
+            fmi_var_t *zr = zt != NULL ? fmi_vars_add(&vs, FMI_REAL, FMI_INPUT, "kg.m2/s",
+                                                      "sphere[%d].rotational_drag_coefficient", i)
+                                       : NULL;
+            if (zr == NULL) {
+                st = oom(log);
+                goto done;
+            }
+            snprintf(zt->description, sizeof zt->description, "-dF/dv of sphere %d's load (implicit coupling)", i);
+            snprintf(zr->description, sizeof zr->description, "-dT/dw of sphere %d's load (implicit coupling)", i);
+            zt->what = Q_DRAG;
+            zr->what = Q_ROTATIONAL_DRAG;
+            zt->index = zr->index = i;
         }
     }
     for (int b = 0, i = 0; b < s->nbodies; b++) {
@@ -209,6 +230,7 @@ static void rigid_fmi_free(void *comp)
     }
     rigid_free(m->r);
     free(m->load);
+    free(m->drag);
     free(m);
 }
 
@@ -223,7 +245,8 @@ static status_t rigid_fmi_create(const scene_t *s, double t0, const log_t *log, 
         free(m);
         return st;
     }
-    if (m == NULL || (m->load = calloc(6 * (size_t)ns + 1, sizeof(double))) == NULL) {
+    if (m == NULL || (m->load = calloc(6 * (size_t)ns + 1, sizeof(double))) == NULL ||
+        (m->drag = calloc(2 * (size_t)ns + 1, sizeof(double))) == NULL) {
         st = oom(log);
         goto done;
     }
@@ -250,12 +273,18 @@ static status_t rigid_fmi_step(void *comp, const fmi_vars_t *vars, const double 
     rigid_fmi_t *m = comp;
     for (int j = 0; j < vars->n; j++) {
         const fmi_var_t *v = &vars->v[j];
-        if (v->causality == FMI_INPUT) {
+        if (v->causality != FMI_INPUT) {
+            continue;
+        }
+        if (v->what == Q_DRAG || v->what == Q_ROTATIONAL_DRAG) {
+            m->drag[2 * v->index + (v->what - Q_DRAG)] = values[j];
+        } else {
             m->load[6 * v->index + 3 * v->what + v->axis] = values[j];
         }
     }
     for (int i = 0; i < m->ns; i++) {
         rigid_set_sphere_load(m->r, i, &m->load[6 * i], &m->load[6 * i + 3]);
+        rigid_set_sphere_drag(m->r, i, m->drag[2 * i], m->drag[2 * i + 1]);
     }
     return rigid_step(m->r, h);
 }

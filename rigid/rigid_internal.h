@@ -37,6 +37,8 @@ typedef struct {
     double j[9];      /* share inertia about its own centroid, body frame */
     double load_f[3], load_t[3]; /* hydrodynamic load set for the next step */
     double held_f[3], held_t[3]; /* load used in the previous step */
+    double drag_t, drag_r;       /* implicit coupling: -dF/dv (kg/s), -dT/dw (kg m^2/s) of the load */
+    double imp_f[3], imp_t[3];   /* implicit coupling: load correction of the current step */
 } rigid_sphere_t;
 
 typedef struct {

@@ -1,6 +1,7 @@
 /* run_tests.c — the one CUnit driver: registers every suite, runs them with
  * the basic interface and exits with the number of failures.
- * `run_tests --validate` adds the long validation suites. */
+ * `run_tests --validate` adds the long validation suites; `run_tests SUITE
+ * [TEST]` runs one suite or one test of it (names as printed). */
 #include "common/scene_tests.h"
 #include "fluid/fluid_tests.h"
 #include "rigid/rigid_tests.h"
@@ -11,12 +12,14 @@
 int main(int argc, char **argv)
 {
     int validate = 0;
-    const char *only = NULL;
+    const char *only = NULL, *test = NULL;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--validate") == 0) {
             validate = 1;
-        } else {
+        } else if (only == NULL) {
             only = argv[i];
+        } else {
+            test = argv[i];
         }
     }
     if (CU_initialize_registry() != CUE_SUCCESS) {
@@ -32,7 +35,16 @@ int main(int argc, char **argv)
             CU_cleanup_registry();
             return 1;
         }
-        CU_basic_run_suite(s);
+        CU_pTest t = test != NULL ? CU_get_test(s, test) : NULL;
+        if (test != NULL && t == NULL) {
+            CU_cleanup_registry();
+            return 1;
+        }
+        if (t != NULL) {
+            CU_basic_run_test(s, t);
+        } else {
+            CU_basic_run_suite(s);
+        }
     } else {
         CU_basic_run_tests();
     }

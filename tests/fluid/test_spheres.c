@@ -476,6 +476,65 @@ static void test_state_restore_bit_identical(void)
     fluid_free(r);
 }
 
+/* ---- drag coefficients for the implicit coupling --------------------------- */
+
+/* Sum over the three axes of the one-step response of the load to a change
+ * of the sphere velocity (rot = 0) or angular velocity (rot = 1) along that
+ * axis, -sum_a dL_a / dv_a, against 3 zt (3 zr) of the base step. */
+static void drag_response_check(force_method_t force, int rot, double *measured, double *published)
+{
+    scene_t s = test_box(20, 20, 20, 0.8, COLLISION_TRT);
+    const double c[3] = {10.2, 9.7, 10.4};
+    one_sphere(&s, c, 4.3, MOTION_FREE);
+    s.fluid.force_method = force;
+    const double v0[3] = {0.01, -0.004, 0.002}, w0[3] = {0.001, 0.0, -0.002}, eps = 1e-5;
+    fluid_t *base = test_fluid(&s), *pert = test_fluid(&s);
+    CU_ASSERT_EQUAL(fluid_set_sphere(base, 0, c, v0, w0), STATUS_OK);
+    test_run(base, 30);
+    const size_t n = fluid_state_size(base);
+    void *buf = malloc(n);
+    CU_ASSERT_FATAL(buf != NULL);
+    CU_ASSERT_EQUAL(fluid_state_save(base, buf, n), STATUS_OK);
+    test_run(base, 1);
+    double f0[3], t0[3], zt, zr;
+    fluid_sphere_load_lattice(base, 0, f0, t0);
+    fluid_sphere_drag(base, 0, &zt, &zr);
+    *measured = 0.0;
+    for (int a = 0; a < 3; a++) {
+        double v[3] = {v0[0], v0[1], v0[2]}, w[3] = {w0[0], w0[1], w0[2]}, f[3], t[3];
+        (rot ? w : v)[a] += eps;
+        CU_ASSERT_EQUAL(fluid_state_restore(pert, buf, n), STATUS_OK);
+        CU_ASSERT_EQUAL(fluid_set_sphere(pert, 0, c, v, w), STATUS_OK);
+        test_run(pert, 1);
+        fluid_sphere_load_lattice(pert, 0, f, t);
+        *measured -= ((rot ? t : f)[a] - (rot ? t0 : f0)[a]) / eps;
+    }
+    *published = 3.0 * (rot ? zr : zt);
+    free(buf);
+    fluid_free(base);
+    fluid_free(pert);
+}
+
+static void test_drag_coefficients(void)
+{
+    /* momentum exchange: the load is linear in the wall velocity, the
+     * coefficient exact; the Galilean-invariant form adds -(f_old - f_new) u_w,
+     * a small nonlinear part */
+    for (int rot = 0; rot < 2; rot++) {
+        double m, p;
+        drag_response_check(FORCE_MOMENTUM_EXCHANGE, rot, &m, &p);
+        CU_ASSERT(p > 0.0 && fabs(m / p - 1.0) < 1e-6);
+        if (!(fabs(m / p - 1.0) < 1e-6)) {
+            printf("\n  momentum exchange, %s: measured %.9g published %.9g\n", rot ? "rotation" : "translation", m, p);
+        }
+        drag_response_check(FORCE_GALILEAN, rot, &m, &p);
+        CU_ASSERT(p > 0.0 && fabs(m / p - 1.0) < 0.05);
+        if (!(fabs(m / p - 1.0) < 0.05)) {
+            printf("\n  galilean, %s: measured %.9g published %.9g\n", rot ? "rotation" : "translation", m, p);
+        }
+    }
+}
+
 /* ---- bad input: a sphere that moves too far in one step ----------------- */
 
 static void test_sphere_speed_limits(void)
@@ -520,6 +579,7 @@ void spheres_register_tests(int validate)
     CU_add_test(s, "shift across a periodic face: same force", test_shift_across_periodic_face);
     CU_add_test(s, "state save/restore: bit-identical continuation", test_state_restore_bit_identical);
     CU_add_test(s, "a sphere moving more than half a cell / a cell per step", test_sphere_speed_limits);
+    CU_add_test(s, "drag coefficients = the load's one-step response to v and w", test_drag_coefficients);
     if (validate) {
         CU_pSuite v = CU_add_suite("spheres-validate", NULL, NULL);
         CU_add_test(v, "periodic array r=8: Sangani-Acrivos within 0.2% at tau 0.6, 1.5", test_periodic_array_r8_taus);
