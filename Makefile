@@ -52,6 +52,7 @@ run: deps
 	@mkdir -p $(BUILD)/out
 	$(BUILD)/coupler run $(SCENE) -o $(BUILD)/out/$(basename $(notdir $(SCENE))).h5
 	$(PY) coupler/plot.py $(BUILD)/out/$(basename $(notdir $(SCENE))).h5
+	$(PY) coupler/check.py $(BUILD)/out/$(basename $(notdir $(SCENE))).h5
 
 test: deps
 	@$(MAKE) --no-print-directory all

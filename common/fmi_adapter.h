@@ -112,6 +112,12 @@ void fmi_vars_free(fmi_vars_t *vs);
 fmi_var_t *fmi_vars_param(fmi_vars_t *vs, const char *name, const char *key, int component, const char *unit,
                           double start, double min, double max, int range_flags, const char *description);
 
+/* The drag-coefficient pair of sphere i for the implicit coupling (README
+ * "Implicit coupling"): sphere[i].drag_coefficient (kg/s, what = what_t) and
+ * sphere[i].rotational_drag_coefficient (kg.m2/s, what = what_r), outputs of
+ * the fluid and inputs of the rigid FMU. Returns 0 when memory runs out. */
+int fmi_vars_add_drag(fmi_vars_t *vs, fmi_causality_t causality, int i, int what_t, int what_r);
+
 /* The GUID of an FMU: a 128-bit hash of the scene text it carries, written
  * as {8-4-4-4-12} hex digits (39 characters with the NUL). */
 void fmi_guid(const char *model, const char *text, size_t len, char out[39]);

@@ -189,21 +189,10 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
             if (s->bodies[b].motion != MOTION_FREE) {
                 continue;
             }
-            fmi_var_t *zt = fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, "kg/s", "sphere[%d].drag_coefficient", i);
-            fmi_var_t *zr = zt != NULL ? fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, "kg.m2/s",
-                                                      "sphere[%d].rotational_drag_coefficient", i)
-                                       : NULL;
-            if (zr == NULL) {
+            if (!fmi_vars_add_drag(&vs, FMI_OUTPUT, i, Q_DRAG, Q_ROTATIONAL_DRAG)) {
                 st = oom(log);
                 goto done;
             }
-            snprintf(zt->description, sizeof zt->description,
-                     "-dF/dv of sphere %d in the last LBM step (implicit coupling)", i);
-            snprintf(zr->description, sizeof zr->description,
-                     "-dT/dw of sphere %d in the last LBM step (implicit coupling)", i);
-            zt->what = Q_DRAG;
-            zr->what = Q_ROTATIONAL_DRAG;
-            zt->index = zr->index = i;
         }
     }
     for (int b = 0, i = 0; b < s->nbodies; b++) {
