@@ -23,7 +23,7 @@ RIGID_SRC   := rigid/rigid.c rigid/body.c rigid/forces.c rigid/contact.c rigid/i
 COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/fmu.c coupler/output.c coupler/export.c \
                common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c \
-               tests/fluid/test_flows.c tests/fluid/test_spheres.c tests/common/test_scene.c \
+               tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/test_spheres.c tests/common/test_scene.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
                tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
                tests/rigid/test_input.c
@@ -71,7 +71,7 @@ bench: deps
 $(BUILD)/rigid_report: $(LIB_OBJ) $(call obj,tests/rigid/rigid_report.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BUILD)/sphere_report: $(LIB_OBJ) $(call obj,tests/fluid/sphere_report.c)
+$(BUILD)/sphere_report: $(LIB_OBJ) $(call obj,tests/fluid/sphere_report.c tests/fluid/sphere_harness.c tests/fluid/test_util.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
 
 report: deps

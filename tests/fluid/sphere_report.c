@@ -17,7 +17,8 @@
 #include "../../common/scene.h"
 #include "../../fluid/fluid.h"
 
-#include "sangani_acrivos.h"
+#include "sphere_harness.h"
+#include "test_util.h"
 
 #include <math.h>
 #include <omp.h>
@@ -25,141 +26,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PI 3.14159265358979323846
-
-
-static scene_sphere_t g_sphere;
-static scene_body_t g_body;
-
-static scene_t box(int L, double tau, collision_t op, const double c[3], double a, motion_t motion)
-{
-    scene_t s;
-    memset(&s, 0, sizeof s);
-    s.path = "report";
-    for (int k = 0; k < 3; k++) {
-        s.domain.size[k] = L;
-        s.domain.faces[2 * k].type = s.domain.faces[2 * k + 1].type = FACE_PERIODIC;
-    }
-    s.fluid.density = 1.0;
-    s.fluid.dx = 1.0;
-    s.fluid.tau = tau;
-    s.fluid.viscosity = (tau - 0.5) / 3.0;
-    s.fluid.collision = op;
-    s.fluid.magic = 3.0 / 16.0;
-    memset(&g_body, 0, sizeof g_body);
-    g_sphere.radius = a;
-    memcpy(g_sphere.center, c, sizeof g_sphere.center);
-    g_body.nspheres = 1;
-    g_body.spheres = &g_sphere;
-    g_body.density = 2.0;
-    g_body.motion = motion;
-    s.nbodies = 1;
-    s.bodies = &g_body;
-    return s;
-}
-
-static double array_error(int L, double a, double tau, collision_t op, boundary_scheme_t scheme, double off)
-{
-    const double c[3] = {L / 2.0 - 0.5 + off, L / 2.0 - 0.5 + off, L / 2.0 - 0.5 + off};
-    scene_t s = box(L, tau, op, c, a, MOTION_FIXED);
-    s.fluid.boundary_scheme = scheme;
-    const double nu = (tau - 0.5) / 3.0, fb = 1e-6 * nu;
-    s.fluid.body_force[0] = fb;
-    log_t log = {log_stderr, NULL};
-    fluid_t *fl = NULL;
-    if (fluid_create(&s, &log, &fl) != STATUS_OK) {
-        return NAN;
-    }
-    double fold = 0.0, f[3], t[3];
-    for (long n = 0; n < 200000; n += 100) {
-        for (int k = 0; k < 100; k++) {
-            fluid_step(fl);
-        }
-        fluid_sphere_load_lattice(fl, 0, f, t);
-        if (fabs(f[0] - fold) < 1e-10 * fabs(f[0])) {
-            break;
-        }
-        fold = f[0];
-    }
-    const int n = L * L * L;
-    double *u = malloc(sizeof(double) * 3 * n);
-    unsigned char *flags = malloc(n);
-    fluid_moments_lattice(fl, NULL, u);
-    fluid_flags(fl, flags);
-    double usum = 0.0;
-    for (int i = 0; i < n; i++) {
-        if (flags[i] == 0) {
-            usum += u[3 * i];
-        }
-    }
-    free(u);
-    free(flags);
-    fluid_free(fl);
-    const double U = usum / n;
-    return (f[0] + fb * 4.0 / 3.0 * PI * a * a * a) / (6.0 * PI * nu * a * U) / sangani_acrivos(2.0 * a / L) - 1.0;
-}
-
-typedef struct {
-    double fluct, drift;
-} moving_t;
-
-/* driven: body force against the motion (for the fluctuation); undriven:
- * no body force, so that fluid momentum + booked impulse must stay constant. */
-static moving_t moving(double a, collision_t op, boundary_scheme_t scheme, force_method_t force, refill_t refill,
-                       long steps, int driven)
-{
-    const int L = (int)(4 * a);
-    const double tau = 0.8, nu = (tau - 0.5) / 3.0, urel = 0.02;
-    const double c[3] = {L / 2.0, L / 2.0 + 0.13, L / 2.0 - 0.21};
-    scene_t s = box(L, tau, op, c, a, MOTION_PRESCRIBED);
-    g_body.velocity[0] = 0.5 * urel;
-    g_body.velocity[1] = 0.05 * urel;
-    s.fluid.boundary_scheme = scheme;
-    s.fluid.force_method = force;
-    s.fluid.refill = refill;
-    if (driven) {
-        s.fluid.body_force[0] = -6.0 * PI * nu * a * urel * sangani_acrivos(0.5) / ((double)L * L * L);
-        s.fluid.initial_velocity[0] = -0.5 * urel;
-    }
-    log_t log = {log_stderr, NULL};
-    fluid_t *fl = NULL;
-    moving_t r = {NAN, NAN};
-    if (fluid_create(&s, &log, &fl) != STATUS_OK) {
-        return r;
-    }
-    double m0, p0[3], m, p[3], imp[3] = {0, 0, 0}, f[3], t[3], sum = 0.0, sum2 = 0.0;
-    long cnt = 0;
-    fluid_totals_lattice(fl, &m0, p0);
-    for (long n = 0; n < steps; n++) {
-        fluid_step(fl);
-        fluid_sphere_load_lattice(fl, 0, f, t);
-        for (int k = 0; k < 3; k++) {
-            imp[k] += f[k];
-        }
-        if (n >= steps / 2) {
-            sum += f[0];
-            sum2 += f[0] * f[0];
-            cnt++;
-        }
-    }
-    fluid_totals_lattice(fl, &m, p);
-    double d2 = 0.0;
-    for (int k = 0; k < 3; k++) {
-        d2 += pow(p[k] + imp[k] - p0[k], 2.0);
-    }
-    const double mean = sum / cnt;
-    r.fluct = sqrt(fmax(sum2 / cnt - mean * mean, 0.0)) / fabs(mean);
-    r.drift = sqrt(d2) / steps;
-    fluid_free(fl);
-    return r;
-}
-
 static double step_cost(int with_sphere)
 {
     const int L = 64;
     const double c[3] = {L / 2.0, L / 2.0, L / 2.0};
-    scene_t s = box(L, 0.8, COLLISION_TRT, c, 8.0, MOTION_PRESCRIBED);
-    g_body.velocity[0] = 0.01;
+    scene_t s = test_box(L, L, L, 0.8, COLLISION_TRT);
+    harness_one_sphere(&s, c, 8.0, MOTION_PRESCRIBED)->velocity[0] = 0.01;
     if (!with_sphere) {
         s.nbodies = 0;
     }
@@ -210,13 +82,13 @@ int main(int argc, char **argv)
             for (int op = 0; op < 2; op++) {
                 const double t0 = omp_get_wtime();
                 const int L = (int)(4 * radii[ri]);
-                const double e0 = array_error(L, radii[ri], 0.8, op, sc, 0.5);
+                const double e0 = harness_array_drag(L, radii[ri], 0.8, op, sc, 0.5).k_rel;
                 double em = NAN;
                 if (radii[ri] <= 5.0) {
                     const double offs[4] = {0.0, 0.15, 0.3, 0.5};
                     em = 0.0;
                     for (int k = 0; k < 4; k++) {
-                        em += (k == 3 ? e0 : array_error(L, radii[ri], 0.8, op, sc, offs[k])) / 4.0;
+                        em += (k == 3 ? e0 : harness_array_drag(L, radii[ri], 0.8, op, sc, offs[k]).k_rel) / 4.0;
                     }
                 }
                 printf("%-6.0f %-16s %-5s %12.3f %14.3f %9.1f\n", radii[ri], sname[sc], cname[op], 100 * e0, 100 * em,
@@ -236,11 +108,11 @@ int main(int argc, char **argv)
                 for (int rf = 0; rf < 2; rf++) {
                     for (int op = 0; op < 2; op++) {
                         const double t0 = omp_get_wtime();
-                        const moving_t m = moving(radii[ri], op, sc, fm, rf, 3000, 1);
-                        const moving_t d = moving(radii[ri], op, sc, fm, rf, 400, 0);
+                        const harness_moving_t m = harness_moving_sphere(sc, fm, rf, op, radii[ri], 3000, 1);
+                        const harness_moving_t d = harness_moving_sphere(sc, fm, rf, op, radii[ri], 400, 0);
                         printf("%-6.0f %-16s %-9s %-13s %-5s %10.5f %14.3e %9.1f\n", radii[ri], sname[sc],
                                fm ? "galilean" : "mem", rf ? "extrapolation" : "equilibrium", cname[op], m.fluct,
-                               d.drift, omp_get_wtime() - t0);
+                               d.drift_per_step, omp_get_wtime() - t0);
                         fflush(stdout);
                     }
                 }

@@ -14,6 +14,7 @@
  *   T = -8 pi mu a^3 Omega / (1 - phi - 1.95708 phi^(10/3)).
  * - Ray-sphere intersection (the paper's Eq. 5) against brute force. */
 #include "fluid_tests.h"
+#include "sphere_harness.h"
 #include "test_util.h"
 
 #include "../../fluid/fluid_internal.h"
@@ -29,24 +30,6 @@
 
 #define PI 3.14159265358979323846
 
-
-static scene_body_t *one_sphere(scene_t *s, const double c[3], double r, motion_t motion)
-{
-    static scene_sphere_t sph[4];
-    static scene_body_t body[4];
-    static int next = 0;
-    const int k = next++ % 4;
-    memset(&body[k], 0, sizeof body[k]);
-    sph[k].radius = r;
-    memcpy(sph[k].center, c, sizeof sph[k].center);
-    body[k].nspheres = 1;
-    body[k].spheres = &sph[k];
-    body[k].density = 2.0;
-    body[k].motion = motion;
-    s->nbodies = 1;
-    s->bodies = &body[k];
-    return &body[k];
-}
 
 /* ---- geometry ------------------------------------------------------------ */
 
@@ -156,7 +139,7 @@ static void test_links_single_and_hand_values(void)
 {
     scene_t s = test_box(12, 12, 12, 1.0, COLLISION_TRT);
     const double c[3] = {5.5, 5.5, 5.5}; /* lattice X = 6 */
-    one_sphere(&s, c, 2.5, MOTION_FIXED);
+    harness_one_sphere(&s, c, 2.5, MOTION_FIXED);
     check_links(&s);
     /* by hand: cell (9,6,6) looking along -x hits the surface at X = 8.5: delta 0.5;
      * cell (8,8,6) along (-1,-1,0): (2-t)^2 * 2 = 6.25, t = 2 - 2.5/sqrt(2) */
@@ -207,47 +190,9 @@ typedef struct {
 
 static drag_t array_drag(int L, double a, double tau, collision_t op, boundary_scheme_t scheme)
 {
-    scene_t s = test_box(L, L, L, tau, op);
-    const double c[3] = {L / 2.0, L / 2.0, L / 2.0}; /* a cell corner */
-    one_sphere(&s, c, a, MOTION_FIXED);
-    s.fluid.boundary_scheme = scheme;
-    s.fluid.force_method = FORCE_GALILEAN;
-    const double nu = (tau - 0.5) / 3.0, fb = 1e-6 * nu;
-    s.fluid.body_force[0] = fb;
-    fluid_t *fl = test_fluid(&s);
-    double fold = 0.0, f[3], t[3];
-    for (long n = 0; n < 200000; n += 100) {
-        test_run(fl, 100);
-        fluid_sphere_load_lattice(fl, 0, f, t);
-        if (fabs(f[0] - fold) < 1e-10 * fabs(f[0])) {
-            break;
-        }
-        fold = f[0];
-    }
-    const int n = L * L * L;
-    double *u = malloc(sizeof(double) * 3 * n);
-    unsigned char *flags = malloc(n);
-    double *rho = malloc(sizeof(double) * n);
-    fluid_moments_lattice(fl, rho, u);
-    fluid_flags(fl, flags);
-    double usum = 0.0, rsum = 0.0;
-    long nfluid = 0;
-    for (int i = 0; i < n; i++) {
-        if (flags[i] == 0) {
-            usum += u[3 * i];
-            rsum += rho[i];
-            nfluid++;
-        }
-    }
-    free(rho);
-    const double U = usum / n, mu = nu;
-    printf(" [mean density %.6f]", rsum / nfluid);
-    drag_t d;
-    d.k_rel = (f[0] + fb * 4.0 / 3.0 * PI * a * a * a) / (6.0 * PI * mu * a * U) / sangani_acrivos(2.0 * a / L) - 1.0;
-    d.balance = f[0] / (fb * nfluid) - 1.0;
-    free(u);
-    free(flags);
-    fluid_free(fl);
+    const harness_drag_t h = harness_array_drag(L, a, tau, op, scheme, 0.5); /* at a cell corner */
+    printf(" [mean density %.6f]", h.mean_density);
+    drag_t d = {h.k_rel, h.balance};
     return d;
 }
 
@@ -295,7 +240,7 @@ static void test_rotating_sphere_torque(void)
     const double a = 8.0, tau = 1.0, nu = (tau - 0.5) / 3.0, omega = 2e-4;
     scene_t s = test_box(L, L, L, tau, COLLISION_TRT);
     const double c[3] = {L / 2.0 - 0.5, L / 2.0 - 0.5 + 0.2, L / 2.0 - 0.5 - 0.3};
-    scene_body_t *b = one_sphere(&s, c, a, MOTION_PRESCRIBED);
+    scene_body_t *b = harness_one_sphere(&s, c, a, MOTION_PRESCRIBED);
     b->angular_velocity[2] = omega;
     s.fluid.boundary_scheme = BOUNDARY_CLI;
     fluid_t *fl = test_fluid(&s);
@@ -323,57 +268,11 @@ typedef struct {
     double mean;
 } moving_t;
 
-/* A sphere moved at constant velocity through a periodic box whose fluid is
- * pushed the other way by a body force, so that the drag has a steady mean
- * (F_b times the fluid volume) about which it fluctuates as cells are covered
- * and uncovered. The fluid starts at its expected mean velocity. */
 static moving_t moving_sphere(boundary_scheme_t scheme, force_method_t force, refill_t refill, collision_t op,
                               double a, long steps, int driven)
 {
-    const int L = (int)(4 * a);
-    const double tau = 0.8, nu = (tau - 0.5) / 3.0, urel = 0.02;
-    scene_t s = test_box(L, L, L, tau, op);
-    const double c[3] = {L / 2.0, L / 2.0 + 0.13, L / 2.0 - 0.21};
-    scene_body_t *b = one_sphere(&s, c, a, MOTION_PRESCRIBED);
-    b->velocity[0] = 0.5 * urel;
-    b->velocity[1] = 0.05 * urel;
-    s.fluid.boundary_scheme = scheme;
-    s.fluid.force_method = force;
-    s.fluid.refill = refill;
-    if (driven) {
-        /* Stokes drag of the array, K(0.5) = 2.842 (Sangani & Acrivos 1982) */
-        const double drag = 6.0 * PI * nu * a * urel * sangani_acrivos(0.5);
-        s.fluid.body_force[0] = -drag / ((double)L * L * L);
-        s.fluid.initial_velocity[0] = -0.5 * urel;
-    }
-    fluid_t *fl = test_fluid(&s);
-    double m0, p0[3], m, p[3], impulse[3] = {0, 0, 0}, f[3], t[3];
-    fluid_totals_lattice(fl, &m0, p0);
-    double sum = 0.0, sum2 = 0.0;
-    long cnt = 0;
-    for (long n = 0; n < steps; n++) {
-        fluid_step(fl);
-        fluid_sphere_load_lattice(fl, 0, f, t);
-        for (int k = 0; k < 3; k++) {
-            impulse[k] += f[k];
-        }
-        if (n >= steps / 2) {
-            fluid_sphere_load(fl, 0, f, t); /* with averaging when the scene asks for it */
-            sum += f[0];
-            sum2 += f[0] * f[0];
-            cnt++;
-        }
-    }
-    fluid_totals_lattice(fl, &m, p);
-    moving_t r;
-    double dr = 0.0;
-    for (int k = 0; k < 3; k++) {
-        dr += pow(p[k] + impulse[k] - p0[k], 2.0);
-    }
-    r.drift_per_step = sqrt(dr) / steps;
-    r.mean = sum / cnt;
-    r.fluct = sqrt(fmax(sum2 / cnt - r.mean * r.mean, 0.0)) / fabs(r.mean);
-    fluid_free(fl);
+    const harness_moving_t h = harness_moving_sphere(scheme, force, refill, op, a, steps, driven);
+    moving_t r = {h.drift_per_step, h.fluct, h.mean};
     return r;
 }
 
@@ -413,7 +312,7 @@ static void test_shift_across_periodic_face(void)
         if (k == 1) {
             c[0] = 3.3 - 7.0 + L; /* = 16.3: the same sphere 13 cells on, wrapped */
         }
-        one_sphere(&s, c, 4.2, MOTION_FIXED);
+        harness_one_sphere(&s, c, 4.2, MOTION_FIXED);
         s.fluid.boundary_scheme = BOUNDARY_QUADRATIC;
         s.fluid.body_force[0] = 1e-6;
         s.fluid.body_force[2] = -0.5e-6;
@@ -440,7 +339,7 @@ static void test_state_restore_bit_identical(void)
 {
     scene_t s = test_box(18, 14, 12, 0.7, COLLISION_TRT);
     const double c[3] = {8.2, 6.9, 5.6};
-    scene_body_t *b = one_sphere(&s, c, 3.3, MOTION_PRESCRIBED);
+    scene_body_t *b = harness_one_sphere(&s, c, 3.3, MOTION_PRESCRIBED);
     b->velocity[0] = 0.03;
     b->angular_velocity[2] = 0.004;
     s.fluid.body_force[1] = 1e-6;
@@ -485,7 +384,7 @@ static void drag_response_check(force_method_t force, int rot, double *measured,
 {
     scene_t s = test_box(20, 20, 20, 0.8, COLLISION_TRT);
     const double c[3] = {10.2, 9.7, 10.4};
-    one_sphere(&s, c, 4.3, MOTION_FREE);
+    harness_one_sphere(&s, c, 4.3, MOTION_FREE);
     s.fluid.force_method = force;
     const double v0[3] = {0.01, -0.004, 0.002}, w0[3] = {0.001, 0.0, -0.002}, eps = 1e-5;
     fluid_t *base = test_fluid(&s), *pert = test_fluid(&s);
@@ -541,7 +440,7 @@ static void test_sphere_speed_limits(void)
 {
     scene_t s = test_box(16, 16, 16, 0.8, COLLISION_TRT);
     const double c[3] = {8.0, 8.0, 8.0};
-    one_sphere(&s, c, 3.0, MOTION_FREE);
+    harness_one_sphere(&s, c, 3.0, MOTION_FREE);
     test_log_t tl;
     log_t l = test_log(&tl);
     fluid_t *fl = NULL;

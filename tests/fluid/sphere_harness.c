@@ -1,0 +1,140 @@
+/* sphere_harness.c — see sphere_harness.h. */
+#include "sphere_harness.h"
+
+#include "../../fluid/fluid.h"
+#include "sangani_acrivos.h"
+#include "test_util.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PI 3.14159265358979323846
+
+scene_body_t *harness_one_sphere(scene_t *s, const double c[3], double r, motion_t motion)
+{
+    static scene_sphere_t sph[4];
+    static scene_body_t body[4];
+    static int next = 0;
+    const int k = next++ % 4;
+    memset(&body[k], 0, sizeof body[k]);
+    sph[k].radius = r;
+    memcpy(sph[k].center, c, sizeof sph[k].center);
+    body[k].nspheres = 1;
+    body[k].spheres = &sph[k];
+    body[k].density = 2.0;
+    body[k].motion = motion;
+    s->nbodies = 1;
+    s->bodies = &body[k];
+    return &body[k];
+}
+
+static fluid_t *create(const scene_t *s)
+{
+    log_t log = {log_stderr, NULL};
+    fluid_t *fl = NULL;
+    return fluid_create(s, &log, &fl) == STATUS_OK ? fl : NULL;
+}
+
+harness_drag_t harness_array_drag(int L, double a, double tau, collision_t op, boundary_scheme_t scheme, double off)
+{
+    harness_drag_t d = {NAN, NAN, NAN};
+    scene_t s = test_box(L, L, L, tau, op);
+    const double c[3] = {L / 2.0 - 0.5 + off, L / 2.0 - 0.5 + off, L / 2.0 - 0.5 + off};
+    harness_one_sphere(&s, c, a, MOTION_FIXED);
+    s.fluid.boundary_scheme = scheme;
+    s.fluid.force_method = FORCE_GALILEAN;
+    const double nu = (tau - 0.5) / 3.0, fb = 1e-6 * nu;
+    s.fluid.body_force[0] = fb;
+    fluid_t *fl = create(&s);
+    if (fl == NULL) {
+        return d;
+    }
+    double fold = 0.0, f[3], t[3];
+    for (long n = 0; n < 200000; n += 100) {
+        test_run(fl, 100);
+        fluid_sphere_load_lattice(fl, 0, f, t);
+        if (fabs(f[0] - fold) < 1e-10 * fabs(f[0])) {
+            break;
+        }
+        fold = f[0];
+    }
+    const int n = L * L * L;
+    double *u = malloc(sizeof(double) * 3 * n), *rho = malloc(sizeof(double) * n);
+    unsigned char *flags = malloc(n);
+    if (u != NULL && rho != NULL && flags != NULL) {
+        fluid_moments_lattice(fl, rho, u);
+        fluid_flags(fl, flags);
+        double usum = 0.0, rsum = 0.0;
+        long nfluid = 0;
+        for (int i = 0; i < n; i++) {
+            if (flags[i] == 0) {
+                usum += u[3 * i];
+                rsum += rho[i];
+                nfluid++;
+            }
+        }
+        const double U = usum / n;
+        d.k_rel = (f[0] + fb * 4.0 / 3.0 * PI * a * a * a) / (6.0 * PI * nu * a * U) / sangani_acrivos(2.0 * a / L) -
+                  1.0;
+        d.balance = f[0] / (fb * nfluid) - 1.0;
+        d.mean_density = rsum / nfluid;
+    }
+    free(u);
+    free(rho);
+    free(flags);
+    fluid_free(fl);
+    return d;
+}
+
+harness_moving_t harness_moving_sphere(boundary_scheme_t scheme, force_method_t force, refill_t refill,
+                                       collision_t op, double a, long steps, int driven)
+{
+    harness_moving_t r = {NAN, NAN, NAN};
+    const int L = (int)(4 * a);
+    const double tau = 0.8, nu = (tau - 0.5) / 3.0, urel = 0.02;
+    scene_t s = test_box(L, L, L, tau, op);
+    const double c[3] = {L / 2.0, L / 2.0 + 0.13, L / 2.0 - 0.21};
+    scene_body_t *b = harness_one_sphere(&s, c, a, MOTION_PRESCRIBED);
+    b->velocity[0] = 0.5 * urel;
+    b->velocity[1] = 0.05 * urel;
+    s.fluid.boundary_scheme = scheme;
+    s.fluid.force_method = force;
+    s.fluid.refill = refill;
+    if (driven) {
+        /* Stokes drag of the array, K(0.5) = 2.842 (Sangani & Acrivos 1982) */
+        const double drag = 6.0 * PI * nu * a * urel * sangani_acrivos(0.5);
+        s.fluid.body_force[0] = -drag / ((double)L * L * L);
+        s.fluid.initial_velocity[0] = -0.5 * urel;
+    }
+    fluid_t *fl = create(&s);
+    if (fl == NULL) {
+        return r;
+    }
+    double m0, p0[3], m, p[3], impulse[3] = {0, 0, 0}, f[3], t[3], sum = 0.0, sum2 = 0.0;
+    long cnt = 0;
+    fluid_totals_lattice(fl, &m0, p0);
+    for (long n = 0; n < steps; n++) {
+        fluid_step(fl);
+        fluid_sphere_load_lattice(fl, 0, f, t);
+        for (int k = 0; k < 3; k++) {
+            impulse[k] += f[k];
+        }
+        if (n >= steps / 2) {
+            fluid_sphere_load(fl, 0, f, t); /* with averaging when the scene asks for it */
+            sum += f[0];
+            sum2 += f[0] * f[0];
+            cnt++;
+        }
+    }
+    fluid_totals_lattice(fl, &m, p);
+    double dr = 0.0;
+    for (int k = 0; k < 3; k++) {
+        dr += pow(p[k] + impulse[k] - p0[k], 2.0);
+    }
+    r.drift_per_step = sqrt(dr) / steps;
+    r.mean = sum / cnt;
+    r.fluct = sqrt(fmax(sum2 / cnt - r.mean * r.mean, 0.0)) / fabs(r.mean);
+    fluid_free(fl);
+    return r;
+}
