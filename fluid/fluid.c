@@ -178,11 +178,12 @@ void fluid_free(fluid_t *fl)
  * signal of amplitude A is +-4A with alternating sign, of a smooth signal
  * about 0. WATCH_STEPS steps in a row with d_n . d_(n-1) < 0 and |d_n|/4
  * above WATCH_AMPLITUDE of the mean load |L_n + L_(n-1)|/2 (force, or
- * torque / radius) raise one warning per sphere, with the remedies, unless
+ * torque / radius; at least the Stokes drag of the sphere's motion) raise one warning per sphere, with the remedies, unless
  * the amplitude has meanwhile fallen below half of what it was at the start
  * of the run: the start-up transient of a particle released from rest or set
  * in motion at once flips too, but decays. */
 enum { WATCH_STEPS = 30 };
+static const double PI = 3.14159265358979323846;
 static const double WATCH_AMPLITUDE = 0.02;
 
 static status_t watch_period_two(fluid_t *fl)
@@ -218,7 +219,14 @@ static status_t watch_period_two(fluid_t *fl)
             d[a] = (p->hist[0][a] - 2.0 * p->hist[1][a] + p->hist[2][a]) * w;
             *(a < 3 ? &mf : &mt) += m * m;
         }
-        const double scale = fmax(sqrt(fmax(mf, mt)), 1e-300);
+        /* ... and never below the Stokes drag of the sphere's own motion,
+         * 6 pi rho nu a (|v| + |w| a) (lattice units), so that a freely
+         * turning neutrally buoyant sphere, whose mean load tends to zero,
+         * does not count the lattice noise of that load as an oscillation */
+        const double nu = (fl->units.tau - 0.5) / 3.0;
+        const double speed = sqrt(p->v[0] * p->v[0] + p->v[1] * p->v[1] + p->v[2] * p->v[2]) +
+                             sqrt(p->w[0] * p->w[0] + p->w[1] * p->w[1] + p->w[2] * p->w[2]) * p->r;
+        const double scale = fmax(fmax(sqrt(fmax(mf, mt)), 6.0 * PI * nu * p->r * speed), 1e-300);
         int alternating = 0;
         double amp = 0.0;
         for (int o = 0; o < 6; o += 3) {
