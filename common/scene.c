@@ -1666,16 +1666,17 @@ static void build_run(ctx_t *c, const raw_run_t *r, scene_run_t *u)
 
 static void check_time_scales(ctx_t *c, const scene_t *s)
 {
-    double dt = s->fluid.dt;
+    /* dt derived from tau carries round-off: one step is "at least dt within 1e-9" */
+    double dt = s->fluid.dt * (1.0 - 1e-9);
     if (s->run.output_interval > 0 && s->run.output_interval < dt) {
         warn(c, "run.output_interval", "= %s s is shorter than one fluid step fluid.dt = %s s; output every step",
-             fmt_num(s->run.output_interval).s, fmt_num(dt).s);
+             fmt_num(s->run.output_interval).s, fmt_num(s->fluid.dt).s);
     }
     if (s->run.end_time > 0 && s->run.end_time < dt) {
         warn(c, "run.end_time", "= %s s is shorter than one fluid step fluid.dt = %s s", fmt_num(s->run.end_time).s,
-             fmt_num(dt).s);
+             fmt_num(s->fluid.dt).s);
     }
-    double rigid_dt = dt / s->rigid.substeps;
+    double rigid_dt = s->fluid.dt / s->rigid.substeps;
     if (s->contacts.model == CONTACT_SPRING_DASHPOT && s->contacts.contact_time > 0 &&
         s->contacts.contact_time < 10 * rigid_dt) {
         warn(c, "contacts.contact_time",

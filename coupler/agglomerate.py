@@ -7,8 +7,12 @@ The procedure (random sequential attachment with sintering, seeded):
    (uniformly) and a direction u (uniform on the unit sphere) and is placed at
    c_p + d u, d = 2 r (1 - overlap): it overlaps its parent by the sintering
    neck. The place is accepted only if the new sphere keeps at least the
-   distance d from every other sphere (so it overlaps its parent alone);
-   otherwise a new parent and direction are drawn.
+   distance d from every other sphere, i.e. overlaps no other sphere more
+   deeply than the neck; otherwise a new parent and direction are drawn. It
+   may still touch or overlap (by less than the neck) spheres other than its
+   parent: such pairs are not listed connections, and the rigid component
+   joins them with an unbreakable implicit bond (README, "Break-up and
+   sticking"; agglomerate_16/32/64: 1, 4 and 13 such pairs).
 3. Every attachment is a connection (parent, k): the agglomerate is a tree of
    n - 1 connections, asymmetric and of fractal-like open structure.
 4. The agglomerate is shifted so that its centroid is at the origin.
