@@ -146,6 +146,12 @@ int rigid_contacts(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3],
             if (!(delta > 0.0)) {
                 continue;
             }
+            /* the spheres of a broken sintered neck overlap by the neck: only
+             * an approach closer than at the break is a contact */
+            delta = rigid_contact_reference(r, i, j) - d;
+            if (!(delta > 0.0)) {
+                continue;
+            }
             if (delta > fmin(si->radius, sj->radius) || d == 0.0) {
                 bad = 1;
                 continue;

@@ -333,6 +333,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
         cn->max_shear = cc->max_shear;
         cn->max_torque = cc->max_torque;
         cn->intact = 1;
+        cn->gap0 = 0.0;
     }
     if ((st = rigid_sections_update(r)) != STATUS_OK) {
         goto cleanup;

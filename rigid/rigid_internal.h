@@ -56,6 +56,10 @@ typedef struct {
     double max_normal, max_shear, max_torque;
     int intact;
     double force[3], torque[3];
+    /* a broken sintered neck whose spheres still overlap: the centre distance
+     * that counts as contact-free (the distance at the break, growing as the
+     * spheres move apart), 0 once they no longer overlap or while intact */
+    double gap0;
 } rigid_conn_t;
 
 struct rigid_integrator_ops;
@@ -204,6 +208,9 @@ void rigid_connection_point(const rigid_t *r, int a, int b, const double xa[3], 
 status_t rigid_breakup(rigid_t *r, int *changed);
 status_t rigid_stick(rigid_t *r, int *changed);
 status_t rigid_regroup(rigid_t *r, int body);
-void rigid_touch_update(rigid_t *r); /* records which pairs touch now */
+void rigid_touch_update(rigid_t *r); /* records which pairs touch now; follows broken necks */
+/* Reference distance of contact between spheres i and j: gap0 of a broken neck
+ * joining them, else r_i + r_j. */
+double rigid_contact_reference(const rigid_t *r, int i, int j);
 
 #endif

@@ -220,6 +220,11 @@ status_t rigid_breakup(rigid_t *r, int *changed)
         }
         if (why != NULL) {
             c->intact = 0;
+            /* the sintering overlap of the neck is no contact penetration */
+            double dd[3];
+            rv_sub(r->sx[c->b], r->sx[c->a], dd);
+            const double dist = rv_norm(dd);
+            c->gap0 = dist < r->spheres[c->a].radius + r->spheres[c->b].radius ? dist : 0.0;
             hit[r->spheres[c->a].body] = 1;
             *changed = 1;
             log_msg(&r->log, STATUS_OK, RIGID_CAT,
@@ -385,9 +390,33 @@ status_t rigid_stick(rigid_t *r, int *changed)
     return STATUS_OK;
 }
 
+double rigid_contact_reference(const rigid_t *r, int i, int j)
+{
+    for (int k = 0; k < r->nconn; k++) {
+        const rigid_conn_t *c = &r->conn[k];
+        if (c->gap0 > 0.0 && ((c->a == i && c->b == j) || (c->a == j && c->b == i))) {
+            return c->gap0;
+        }
+    }
+    return r->spheres[i].radius + r->spheres[j].radius;
+}
+
 void rigid_touch_update(rigid_t *r)
 {
     int ns = r->nspheres;
+    /* broken necks: the contact-free distance follows the spheres apart and
+     * is forgotten once they no longer overlap */
+    for (int k = 0; k < r->nconn; k++) {
+        rigid_conn_t *c = &r->conn[k];
+        if (c->gap0 > 0.0) {
+            double xa[3], xb[3], d[3];
+            rigid_sphere_world(r, r->bodies, c->a, xa, NULL, NULL);
+            rigid_sphere_world(r, r->bodies, c->b, xb, NULL, NULL);
+            rv_sub(xb, xa, d);
+            const double dist = rv_norm(d);
+            c->gap0 = dist >= r->spheres[c->a].radius + r->spheres[c->b].radius ? 0.0 : fmax(c->gap0, dist);
+        }
+    }
     for (int i = 0; i < ns; i++) {
         double xi[3];
         rigid_sphere_world(r, r->bodies, i, xi, NULL, NULL);

@@ -74,6 +74,56 @@ static void test_breakup_shear_torque_limits(void)
     rigid_free(r);
 }
 
+/* Two spheres sintered with a 10% overlap, pulled apart once just past the
+ * neck's tensile limit, then left alone with the spring-dashpot contact on:
+ * the overlap of the broken neck is no contact penetration, so no spring
+ * energy is released (the kinetic energy after the break stays what the
+ * pull gave); the pair drifts apart; only a push closer than at the break
+ * meets the contact. Without the neck reference the overlap of 0.2 r acts as
+ * a compressed spring and throws the fragments apart. */
+static void test_broken_neck_is_no_contact(void)
+{
+    const double rr = 0.01, d = 2 * rr * 0.9, lim = 1e-6;
+    rigid_sphere_cfg_t s[2] = {{{0, 0, 0}, rr, 0}, {{d, 0, 0}, rr, 0}};
+    rigid_body_cfg_t b = {2000.0, {0, 0, 0}, {0, 0, 0}, 0};
+    rigid_connection_cfg_t c = {0, 1, lim, 0, 0};
+    rigid_config_t cfg = test_cfg(2, s, 1, &b, 1, &c);
+    cfg.contact_model = RIGID_CONTACT_SPRING_DASHPOT;
+    cfg.contact_time = 1e-3;
+    cfg.restitution = 0.9;
+    rigid_t *r = NULL;
+    CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &r), STATUS_OK);
+    const double zero[3] = {0, 0, 0}, pull[3] = {-1.5 * lim, 0, 0}, push[3] = {1.5 * lim, 0, 0};
+    rigid_set_sphere_load(r, 0, pull, zero);
+    rigid_set_sphere_load(r, 1, push, zero);
+    CU_ASSERT_EQUAL_FATAL(rigid_step(r, 1e-4), STATUS_OK); /* the neck breaks at the end of this step */
+    CU_ASSERT_EQUAL_FATAL(rigid_nbodies(r), 2);
+    CU_ASSERT(rigid_kinetic_energy(r) == 0.0);              /* the loads were equal and opposite */
+    CU_ASSERT_EQUAL_FATAL(rigid_step(r, 1e-4), STATUS_OK); /* one more pull: the fragments part */
+    rigid_set_sphere_load(r, 0, zero, zero);
+    rigid_set_sphere_load(r, 1, zero, zero);
+    const double e0 = rigid_kinetic_energy(r);
+    double emax = e0, x0[3], x1[3];
+    for (int n = 0; n < 200; n++) {
+        CU_ASSERT_EQUAL_FATAL(rigid_step(r, 1e-4), STATUS_OK);
+        emax = fmax(emax, rigid_kinetic_energy(r));
+    }
+    CU_ASSERT(e0 > 0.0 && emax <= e0 * (1.0 + 1e-9));
+    rigid_get_sphere(r, 0, x0, NULL, NULL);
+    rigid_get_sphere(r, 1, x1, NULL, NULL);
+    CU_ASSERT(vec_dist(x0, x1) > d); /* drifting apart with the pull's speed */
+    /* pushed together harder than at the break: the contact answers */
+    rigid_set_sphere_load(r, 0, push, zero);
+    rigid_set_sphere_load(r, 1, pull, zero);
+    for (int n = 0; n < 400; n++) {
+        CU_ASSERT_EQUAL_FATAL(rigid_step(r, 1e-4), STATUS_OK);
+    }
+    rigid_get_sphere(r, 0, x0, NULL, NULL);
+    rigid_get_sphere(r, 1, x1, NULL, NULL);
+    CU_ASSERT(vec_dist(x0, x1) > 0.8 * d); /* held off near the neck distance, not passing through */
+    rigid_free(r);
+}
+
 static void test_fusion_conserves(void)
 {
     /* an oblique, slow contact between a spinning sphere and a dumbbell */
@@ -142,6 +192,7 @@ void test_topology_register(void)
     CU_pSuite s = CU_add_suite("rigid_topology", NULL, NULL);
     CU_add_test(s, "break-up conserves P and L to 1e-12", test_breakup_conserves);
     CU_add_test(s, "break-up by torque limit", test_breakup_shear_torque_limits);
+    CU_add_test(s, "a broken sintered neck is no contact penetration", test_broken_neck_is_no_contact);
     CU_add_test(s, "sticking conserves P and L to 1e-12", test_fusion_conserves);
     CU_add_test(s, "no sticking above stick_speed", test_no_stick_when_fast);
 }
