@@ -112,7 +112,8 @@ def scene_dual_star():
         body_yaml("dual_star", centers, r, 2000.0),
         connections_yaml(pairs),
         "rigid: {integrator: verlet, gravity: [0, 0, 0]}",
-        f"run: {{end_time: {fmt(period / 2)}, output_interval: {fmt(period / 400)}}}",
+        f"run: {{end_time: {fmt(period / 2)}, output_interval: {fmt(period / 400)}, fields: true, "
+        f"field_interval: {fmt(period / 8)}}}",
         "",
     ])
 
@@ -133,7 +134,7 @@ def scene_agglomerate(n, seed):
         body_yaml(f"agglomerate_{n}", centers, r, 2000.0),
         connections_yaml(pairs),
         "rigid: {integrator: verlet, gravity: [0, 0, 0]}",
-        "run: {end_time: 2.0, output_interval: 0.01}",
+        "run: {end_time: 2.0, output_interval: 0.01, fields: true, field_interval: 0.5}",
         "",
     ])
 
@@ -171,7 +172,7 @@ def scene_three():
         connections_yaml(pairs),
         "contacts: {model: spring_dashpot, restitution: 0.5, contact_time: 2.0e-3}",
         "rigid: {integrator: verlet, gravity: [0, 0, 0], substeps: 4}",
-        "run: {end_time: 1.0, output_interval: 0.01}",
+        "run: {end_time: 1.0, output_interval: 0.01, fields: true, field_interval: 0.25}",
         "",
     ])
 
@@ -220,7 +221,7 @@ def scene_channel_collision():
         connections_yaml(pairs),
         "contacts: {model: spring_dashpot, restitution: 0.5, contact_time: 1.0e-3, stick_speed: 1.0}",
         "rigid: {integrator: verlet, gravity: [0, 0, 0], substeps: 4}",
-        "run: {end_time: 2.0, output_interval: 0.005}",
+        "run: {end_time: 2.0, output_interval: 0.005, fields: true, field_interval: 0.5}",
         "",
     ])
 
@@ -235,11 +236,10 @@ def scene_breakup():
     (1-2e-8 N at this shear rate, measured with unbreakable necks); with the former
     limits of 2e-7 N every neck was broken within 0.005 s. The limit 1e-8 N lies below
     the steady loads of the most
-    loaded necks and above those of the least loaded ones. No contact model: the rigid
-    component treats the 10% sintering overlap of a just-broken neck as a contact
-    penetration of 0.2 r, whose spring force (3e-5 N with contact_time 1e-3 s) threw the
-    fragments apart at 0.1 m/s in one step, broke every other neck and stopped the fluid
-    (a sphere moved more than a cell per step)."""
+    loaded necks and above those of the least loaded ones. Contacts are on, so fragments
+    do not pass through each other; the sintering overlap of a just-broken neck is not a
+    contact penetration (the rigid component takes the centre distance at the break as the
+    contact-free distance of that pair until the two spheres part)."""
     r, dx = 2.5e-4, 5.0e-5
     c, p = agglomerate.generate(10, r, overlap=0.1, seed=31)
     half = agglomerate.extent(c, r)
@@ -258,9 +258,9 @@ def scene_breakup():
         "bodies:",
         body_yaml("fragile", c, r, 2000.0),
         connections_yaml(p, {"max_normal": limit, "max_shear": limit}),
-        "contacts: {model: none}   # a broken sintered neck would count as a deep contact (make_scenes.py)",
+        "contacts: {model: spring_dashpot, restitution: 0.5, contact_time: 1.0e-3}   # fragments do not pass through each other",
         "rigid: {integrator: verlet, gravity: [0, 0, 0], substeps: 4}",
-        "run: {end_time: 3.0, output_interval: 0.01}",
+        "run: {end_time: 3.0, output_interval: 0.01, fields: true, field_interval: 0.75}",
         "",
     ])
 
@@ -288,7 +288,8 @@ def scene_sphere_in_shear():
         "bodies:",
         body_yaml("sphere", [np.array(size) / 2], a, WATER["density"]),
         "rigid: {integrator: verlet, gravity: [0, 0, 0]}",
-        f"run: {{end_time: {fmt(5 * a * a / nu)}, output_interval: {fmt(0.05 * a * a / nu)}}}   # 5 a^2/nu",
+        f"run: {{end_time: {fmt(5 * a * a / nu)}, output_interval: {fmt(0.05 * a * a / nu)}, fields: true, "
+        f"field_interval: {fmt(1.25 * a * a / nu)}}}   # 5 a^2/nu",
         "",
     ])
 

@@ -10,6 +10,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
+import yaml
 
 from conftest import MODELS, PY, ROOT, run
 
@@ -56,7 +57,7 @@ def test_agglomerate_is_a_sintered_tree(n, seed):
 @pytest.mark.parametrize("scene", SCENES)
 def test_scene_runs_a_few_steps(coupler, tmp_path, scene):
     out = tmp_path / f"{scene}.h5"
-    p = run("run", MODELS / f"{scene}.yaml", "-o", out, "--steps", "4", "--quiet",
+    p = run("run", MODELS / f"{scene}.yaml", "-o", out, "--steps", "4", "--quiet", "--set", "run.fields=false",
             "--set", "run.output_interval=1e-9")
     assert p.returncode == 0, p.stderr
     with h5py.File(out, "r") as f:
@@ -65,3 +66,14 @@ def test_scene_runs_a_few_steps(coupler, tmp_path, scene):
         assert np.all(np.isfinite(f["/spheres/position"][:]))
         if "/connections/force" in f:
             assert np.all(np.isfinite(f["/connections/force"][:]))
+
+
+@pytest.mark.parametrize("scene", ["sinking_sphere"] + SCENES)
+def test_every_paper_scene_writes_fields_for_paraview(scene):
+    """Each scene of the paper asks for field snapshots (run.fields) at 5 times, so that
+    `make run SCENE=...` leaves an .xmf for ParaView beside the output (the writer itself is
+    tested in test_master.py)."""
+    s = yaml.safe_load((MODELS / f"{scene}.yaml").read_text())
+    assert s["run"]["fields"] is True
+    n = s["run"]["end_time"] / s["run"]["field_interval"]
+    assert abs(n - round(n)) < 1e-6 and 4 <= round(n) <= 8
