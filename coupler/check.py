@@ -61,6 +61,11 @@ def main(argv=None):
         print(f"check.py: {args.output}: not an HDF5 output file ({e})", file=sys.stderr)
         return 2
     outdir = args.outdir or os.path.dirname(os.path.abspath(args.output))
+    try:
+        os.makedirs(outdir, exist_ok=True)
+    except OSError as e:
+        print(f"check.py: {outdir}: cannot create the figure folder ({e.strerror})", file=sys.stderr)
+        return 2
     if name not in CHECKS:
         print(f"{args.output}: scene '{name}' has no scene check (see coupler/plot.py for its plots)")
         return 0

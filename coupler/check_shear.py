@@ -44,10 +44,10 @@ import sys
 import matplotlib
 
 matplotlib.use("Agg")
-import h5py  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-import yaml  # noqa: E402
+
+import h5out  # noqa: E402
 
 PAPER_MAX_FORCE = 7.00557e-7  # N, Iglberger, Thuerey & Ruede (2008), Section 5, Fig. 8
 SYM_TOL = 1e-6        # relative: antisymmetry of the central connections, y components, off-axis rotation
@@ -60,27 +60,10 @@ ROT_TOL = 0.01        # sphere in shear: |w/(gamma/2) - 1|
 
 
 def _text(attr):
-    return attr.decode() if isinstance(attr, bytes) else str(attr)
+    return h5out.text(attr)
 
 
-def read(h5):
-    """Everything the checks use, as numpy arrays, plus the scene (dict)."""
-    d = {}
-    with h5py.File(h5, "r") as f:
-        d["scene"] = yaml.safe_load(_text(f.attrs["scene"])) if "scene" in f.attrs else {}
-        d["scene_file"] = _text(f.attrs["scene_file"]) if "scene_file" in f.attrs else ""
-        d["t"] = f["/time"][:]
-        for k in ("position", "velocity", "angular_velocity", "force", "torque"):
-            if f"/spheres/{k}" in f:
-                d[k] = f[f"/spheres/{k}"][:]
-        if "/connections/pair" in f:
-            d["pair"] = f["/connections/pair"][:]
-            d["cforce"] = f["/connections/force"][:]
-            d["ctorque"] = f["/connections/torque"][:]
-            d["intact"] = f["/connections/intact"][:]
-        if "/fluid/mass" in f:
-            d["mass"] = f["/fluid/mass"][:]
-    return d
+read = h5out.read
 
 
 def scene_name(d):

@@ -29,16 +29,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import h5out  # noqa: E402
 
-def text(attr):
-    return attr.decode() if isinstance(attr, bytes) else str(attr)
 
-
-def save(fig, path, written):
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    written.append(path)
+text = h5out.text
+save = h5out.save
 
 
 def settling_sphere(scene):
