@@ -83,7 +83,8 @@ report: deps
 # shared library exports the fmi2* entry points only; common/fmi_adapter.c
 # is compiled once per model (-DFMI_MODEL). The fluid links the serial HDF5
 # for its field snapshots (common/h5fields.c).
-FMU_FLUID_SRC := common/status.c common/scene.c common/fmi_vars.c common/h5fields.c $(FLUID_SRC) fluid/fluid_fmi.c
+FMU_FLUID_SRC := common/status.c common/scene.c common/fmi_vars.c common/h5fields.c \
+                 $(filter-out fluid/kernel.c,$(FLUID_SRC)) fluid/kernel_dispatch.c fluid/fluid_fmi.c
 FMU_RIGID_SRC := common/status.c common/scene.c common/fmi_vars.c $(RIGID_SRC) rigid/rigid_fmi.c
 # FMUs travel to other machines: the x86-64 baseline (SSE2) instead of
 # -march=native (the kernel is memory-bound; see README "FMUs").
@@ -105,7 +106,17 @@ $(BUILD)/fmu/obj/fmi_adapter_fluid.o $(BUILD)/fmu/obj/fmi_adapter_rigid.o: $(BUI
 	@mkdir -p $(dir $@)
 	$(CC) $(FMU_CFLAGS) -DFMI_MODEL=$*_fmi_model -MMD -MP -c $< -o $@
 
-$(BUILD)/fmu/fluid.so: $(call fmu_obj,$(FMU_FLUID_SRC)) $(BUILD)/fmu/obj/fmi_adapter_fluid.o
+# the fluid kernel twice, for the x86-64 baseline and for x86-64-v3 (AVX2,
+# FMA); fluid/kernel_dispatch.c picks one by the CPU at run time
+$(BUILD)/fmu/obj/kernel_base.o: fluid/kernel.c
+	@mkdir -p $(dir $@)
+	$(CC) $(FMU_CFLAGS) -DKERNEL_VARIANT=base -DKERNEL_PRIMARY -MMD -MP -c $< -o $@
+$(BUILD)/fmu/obj/kernel_v3.o: fluid/kernel.c
+	@mkdir -p $(dir $@)
+	$(CC) $(FMU_CFLAGS) $(if $(FMU_ARCH),-march=x86-64-v3,) -DKERNEL_VARIANT=v3 -MMD -MP -c $< -o $@
+
+$(BUILD)/fmu/fluid.so: $(call fmu_obj,$(FMU_FLUID_SRC)) $(BUILD)/fmu/obj/fmi_adapter_fluid.o \
+                       $(BUILD)/fmu/obj/kernel_base.o $(BUILD)/fmu/obj/kernel_v3.o
 	$(CC) $(FMU_CFLAGS) $(FMU_LDFLAGS) $^ -o $@ $(FMU_FLUID_LIBS)
 
 $(BUILD)/fmu/rigid.so: $(call fmu_obj,$(FMU_RIGID_SRC)) $(BUILD)/fmu/obj/fmi_adapter_rigid.o

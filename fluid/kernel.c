@@ -25,11 +25,28 @@
 
 #define KERNEL_BLOCK 64
 
+/* KERNEL_VARIANT (the FMU build, Makefile): this file is compiled once for
+ * the x86-64 baseline and once for x86-64-v3 (AVX2, FMA) under the names
+ * kernel_stream_collide_base / _v3, and kernel_dispatch.c picks one at run
+ * time (the baseline compile, KERNEL_PRIMARY, also defines
+ * kernel_omega_minus); without it (build/coupler, tests: -march=native) it
+ * defines kernel_stream_collide and kernel_omega_minus itself. */
+#if defined(KERNEL_VARIANT)
+#define KERNEL_CAT2(a, b) a##_##b
+#define KERNEL_CAT(a, b) KERNEL_CAT2(a, b)
+#define KERNEL_ENTRY KERNEL_CAT(kernel_stream_collide, KERNEL_VARIANT)
+void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const double *restrict src, double *restrict dst);
+#else
+#define KERNEL_ENTRY kernel_stream_collide
+#endif
+
+#if !defined(KERNEL_VARIANT) || defined(KERNEL_PRIMARY)
 double kernel_omega_minus(double omega_plus, double magic)
 {
     const double a = 1.0 / omega_plus - 0.5;
     return 1.0 / (magic / a + 0.5);
 }
+#endif
 
 typedef struct {
     double wp, wm, gp;  /* omega_plus, omega_minus, 1 - omega_plus/2 */
@@ -132,8 +149,7 @@ static void store_block(double *restrict dst, size_t ncells, size_t base, int nb
     }
 }
 
-void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const double *restrict src,
-                           double *restrict dst)
+void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const double *restrict src, double *restrict dst)
 {
     consts_t k;
     k.wp = p->omega_plus;
