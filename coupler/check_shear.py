@@ -195,15 +195,22 @@ def rotation_angle(d, c, other, n, e, w):
     return ang - ang[0]
 
 
+class _Report:
+    """The lines of a check report; check() adds a pass/fail line, and ok stays
+    False once anything failed."""
+
+    def __init__(self):
+        self.lines, self.ok = [], True
+
+    def check(self, cond, text):
+        self.ok = self.ok and bool(cond)
+        self.lines.append(f"  [{'ok' if cond else 'FAIL'}] {text}")
+
+
 def check_dual_star(h5, outdir):
     d = read(h5)
-    lines = []
-    ok = True
-
-    def check(cond, text):
-        nonlocal ok
-        ok = ok and bool(cond)
-        lines.append(f"  [{'ok' if cond else 'FAIL'}] {text}")
+    rep = _Report()
+    lines, check = rep.lines, rep.check
 
     sc = d["scene"]
     sf = shear_flow(sc)
@@ -314,8 +321,8 @@ def check_dual_star(h5, outdir):
     if outdir:
         lines += plot_dual_star(h5, outdir, d, t, Fl, Fr, Tl, Tr, fits, fit_rows, e, w, n, ang, gamma, wy,
                                 axial, trans, afit)
-    lines.insert(0, f"check_dual_star: {'PASS' if ok else 'FAIL'}")
-    return ok, lines
+    lines.insert(0, f"check_dual_star: {'PASS' if rep.ok else 'FAIL'}")
+    return rep.ok, lines
 
 
 def _stem(h5, outdir):
@@ -408,13 +415,8 @@ def plot_dual_star(h5, outdir, d, t, Fl, Fr, Tl, Tr, fits, fit_rows, e, w, n, an
 
 def check_sphere_in_shear(h5, outdir):
     d = read(h5)
-    lines = []
-    ok = True
-
-    def check(cond, text):
-        nonlocal ok
-        ok = ok and bool(cond)
-        lines.append(f"  [{'ok' if cond else 'FAIL'}] {text}")
+    rep = _Report()
+    lines, check = rep.lines, rep.check
 
     sc = d["scene"]
     sf = shear_flow(sc)
@@ -474,8 +476,8 @@ def check_sphere_in_shear(h5, outdir):
         fig.savefig(f"{stem}_rotation.png", dpi=110)
         plt.close(fig)
         lines.append(f"  figure: {stem}_rotation.png")
-    lines.insert(0, f"check_sphere_in_shear: {'PASS' if ok else 'FAIL'}")
-    return ok, lines
+    lines.insert(0, f"check_sphere_in_shear: {'PASS' if rep.ok else 'FAIL'}")
+    return rep.ok, lines
 
 
 CHECKS = {"dual_star_shear": check_dual_star, "sphere_in_shear": check_sphere_in_shear}

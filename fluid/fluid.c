@@ -169,6 +169,17 @@ void fluid_free(fluid_t *fl)
     free(fl);
 }
 
+/* The load a sphere delivers (lattice units): that of the last step, or the
+ * mean of the last two when fluid.force_averaging is set. */
+static void delivered_load(const fluid_t *fl, const sphere_t *p, double force[3], double torque[3])
+{
+    const int avg = fl->spheres.averaging && fl->step > 1;
+    for (int a = 0; a < 3; a++) {
+        force[a] = avg ? 0.5 * (p->f[a] + p->fprev[a]) : p->f[a];
+        torque[a] = avg ? 0.5 * (p->t[a] + p->tprev[a]) : p->t[a];
+    }
+}
+
 /* The period-2 watch. Explicit coupling feeds the particle velocity of one
  * step into the boundary force of the next; for a light or small particle
  * this force reacts so strongly that the velocity overshoots and the load
@@ -195,13 +206,7 @@ static status_t watch_period_two(fluid_t *fl)
             continue;
         }
         double load[6];
-        fluid_sphere_load_lattice(fl, i, load, load + 3);
-        if (fl->spheres.averaging && fl->step > 1) {
-            for (int a = 0; a < 3; a++) {
-                load[a] = 0.5 * (p->f[a] + p->fprev[a]);
-                load[3 + a] = 0.5 * (p->t[a] + p->tprev[a]);
-            }
-        }
+        delivered_load(fl, p, load, load + 3);
         memmove(p->hist[1], p->hist[0], 2 * sizeof p->hist[0]);
         memcpy(p->hist[0], load, sizeof load);
         if (p->nhist < 3) {
@@ -515,12 +520,11 @@ void fluid_get_sphere(const fluid_t *fl, int i, double c[3], double v[3], double
 
 void fluid_sphere_load(const fluid_t *fl, int i, double force[3], double torque[3])
 {
-    const sphere_t *p = &fl->spheres.s[i];
     const double fs = units_force(&fl->units), ts = units_torque(&fl->units);
-    const int avg = fl->spheres.averaging && fl->step > 1;
+    delivered_load(fl, &fl->spheres.s[i], force, torque);
     for (int a = 0; a < 3; a++) {
-        force[a] = (avg ? 0.5 * (p->f[a] + p->fprev[a]) : p->f[a]) * fs;
-        torque[a] = (avg ? 0.5 * (p->t[a] + p->tprev[a]) : p->t[a]) * ts;
+        force[a] *= fs;
+        torque[a] *= ts;
     }
 }
 
