@@ -15,11 +15,13 @@ CFLAGS   := -std=c11 -D_POSIX_C_SOURCE=200809L -O3 -march=native -g -fopenmp -fP
 LDLIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial -lm
 SCENE    ?= models/sinking_sphere.yaml
 
-COMMON_SRC  := common/status.c common/scene.c
+COMMON_SRC  := common/status.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
+               common/scene_build.c common/scene_check.c
 FLUID_SRC   := fluid/lattice.c fluid/kernel.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
-               fluid/spheres.c fluid/state.c fluid/fluid.c
-RIGID_SRC   := rigid/rigid.c rigid/body.c rigid/forces.c rigid/contact.c rigid/integrator_verlet.c \
-               rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c rigid/rigid_scene.c
+               fluid/spheres.c fluid/state.c fluid/initial_profile.c fluid/fluid.c
+RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
+               rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \
+               rigid/rigid_scene.c
 COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/fmu.c coupler/output.c coupler/export.c \
                common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c \
@@ -83,9 +85,9 @@ report: deps
 # shared library exports the fmi2* entry points only; common/fmi_adapter.c
 # is compiled once per model (-DFMI_MODEL). The fluid links the serial HDF5
 # for its field snapshots (common/h5fields.c).
-FMU_FLUID_SRC := common/status.c common/scene.c common/fmi_vars.c common/h5fields.c \
+FMU_FLUID_SRC := $(COMMON_SRC) common/fmi_vars.c common/h5fields.c \
                  $(filter-out fluid/kernel.c,$(FLUID_SRC)) fluid/kernel_dispatch.c fluid/fluid_fmi.c
-FMU_RIGID_SRC := common/status.c common/scene.c common/fmi_vars.c $(RIGID_SRC) rigid/rigid_fmi.c
+FMU_RIGID_SRC := $(COMMON_SRC) common/fmi_vars.c $(RIGID_SRC) rigid/rigid_fmi.c
 # FMUs travel to other machines: the x86-64 baseline (SSE2) instead of
 # -march=native (the kernel is memory-bound; see README "FMUs").
 FMU_ARCH      := $(if $(filter x86_64,$(shell uname -m)),-march=x86-64 -mtune=generic,)

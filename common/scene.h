@@ -43,7 +43,8 @@ typedef struct {
 
 /* Initial fluid velocity: uniform (fluid.initial_velocity everywhere) or the
  * steady laminar plane-channel profile between the two walls of the one
- * wall-bounded axis (Couette + body-force Poiseuille), plus initial_velocity. */
+ * wall-bounded axis (Couette + body-force Poiseuille), plus initial_velocity
+ * (the profile itself: fluid/initial_profile.c). */
 typedef enum { INITIAL_UNIFORM, INITIAL_PLANE_CHANNEL } initial_profile_t;
 
 typedef struct {
@@ -146,9 +147,6 @@ typedef struct scene {
 status_t scene_load(const char *path, const char *const *overrides, int noverrides, const log_t *log,
                     scene_t **out);
 void scene_free(scene_t *s);
-
-/* Initial fluid velocity (m/s) at the point x (m) (fluid.initial_profile). */
-void scene_initial_velocity(const scene_t *s, const double x[3], double u[3]);
 int scene_total_spheres(const scene_t *s);
 const char *face_type_name(face_type_t t);
 

@@ -6,6 +6,7 @@
  * arrays swap. Populations are SoA with one ghost layer (grid.h). */
 #include "fluid_internal.h"
 
+#include "initial_profile.h"
 #include "lattice.h"
 
 #include <math.h>

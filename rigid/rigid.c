@@ -1,5 +1,5 @@
-/* rigid.c — the public verbs: create (validating the configuration), step,
- * getters, free.
+/* rigid.c — the public verbs: create (after rigid_config.c has validated the
+ * configuration), step, getters, free.
  *
  * A communication step (rigid_step) reads like the algorithm:
  *   1. trapezoidal correction of the hydrodynamic load: the previous step
@@ -7,7 +7,8 @@
  *      h_prev/2 (F_{n+1} - F_n) (and the matching torque), which makes the
  *      coupling second order for both integrators (for one sub-step and
  *      Verlet this is exactly the closing half-kick of Stoermer-Verlet);
- *   2. integrate over h (Verlet sub-steps or CVODE) with the load held;
+ *   2. integrate over h (Verlet sub-steps or CVODE) with the load held
+ *      (corrected first by the implicit coupling, implicit.c);
  *   3. forces at the new state; connection forces and torques (Eq. 8-9);
  *   4. break-up, then sticking; sections rebuilt if the topology changed.
  * The velocities reported after a step are therefore the predicted ones
@@ -17,203 +18,6 @@
 #include <assert.h>
 #include <stdlib.h>
 #include <string.h>
-
-static status_t bad(const log_t *log, const char *fmt, double a, double b)
-{
-    return log_msg(log, STATUS_ERROR, RIGID_CAT, fmt, a, b);
-}
-
-static int finite3(const double v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
-
-static status_t validate(const rigid_config_t *c, const log_t *log)
-{
-    if (c->nspheres < 1 || c->nbodies < 1 || c->nconnections < 0) {
-        return log_msg(log, STATUS_ERROR, RIGID_CAT,
-                       "need at least one sphere and one body (nspheres=%d, nbodies=%d, nconnections=%d)",
-                       c->nspheres, c->nbodies, c->nconnections);
-    }
-    if (c->spheres == NULL || c->bodies == NULL || (c->nconnections > 0 && c->connections == NULL)) {
-        return log_msg(log, STATUS_ERROR, RIGID_CAT, "configuration arrays missing");
-    }
-    for (int b = 0; b < c->nbodies; b++) {
-        const rigid_body_cfg_t *bd = &c->bodies[b];
-        if (!(bd->density > 0.0) || !isfinite(bd->density)) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "body %d: density %g kg/m^3 must be > 0 and finite", b,
-                           bd->density);
-        }
-        if (!finite3(bd->velocity) || !finite3(bd->angular_velocity)) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "body %d: initial velocity must be finite", b);
-        }
-    }
-    for (int i = 0; i < c->nspheres; i++) {
-        const rigid_sphere_cfg_t *s = &c->spheres[i];
-        if (!(s->radius > 0.0) || !isfinite(s->radius)) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "sphere %d: radius %g m must be > 0 and finite", i,
-                           s->radius);
-        }
-        if (!finite3(s->center)) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "sphere %d: centre must be finite", i);
-        }
-        if (s->body < 0 || s->body >= c->nbodies) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "sphere %d: body %d out of range [0, %d)", i, s->body,
-                           c->nbodies);
-        }
-    }
-    for (int k = 0; k < c->nconnections; k++) {
-        const rigid_connection_cfg_t *cn = &c->connections[k];
-        if (cn->a < 0 || cn->a >= c->nspheres || cn->b < 0 || cn->b >= c->nspheres || cn->a == cn->b) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT,
-                           "connection %d: spheres %d and %d must be two different spheres in [0, %d)", k, cn->a,
-                           cn->b, c->nspheres);
-        }
-        const rigid_sphere_cfg_t *sa = &c->spheres[cn->a], *sb = &c->spheres[cn->b];
-        if (sa->body != sb->body) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT,
-                           "connection %d: sphere %d (body %d) and sphere %d (body %d) belong to different bodies", k,
-                           cn->a, sa->body, cn->b, sb->body);
-        }
-        double d[3];
-        rv_sub(sa->center, sb->center, d);
-        double dist = rv_norm(d), lim = (sa->radius + sb->radius) * (1.0 + RIGID_TOUCH_TOL);
-        if (dist > lim) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT,
-                           "connection %d: spheres %d and %d of body %d do not touch or overlap: centre distance %.9g m "
-                           "exceeds the sum of radii %.9g m",
-                           k, cn->a, cn->b, sa->body, dist, sa->radius + sb->radius);
-        }
-        const double lims[3] = {cn->max_normal, cn->max_shear, cn->max_torque};
-        const char *names[3] = {"max_normal (N)", "max_shear (N)", "max_torque (N m)"};
-        for (int m = 0; m < 3; m++) {
-            if (!(lims[m] >= 0.0)) {
-                return log_msg(log, STATUS_ERROR, RIGID_CAT,
-                               "connection %d (spheres %d-%d): %s is %g, must be >= 0 (0 or inf = unbreakable)", k,
-                               cn->a, cn->b, names[m], lims[m]);
-            }
-        }
-        for (int m = 0; m < k; m++) {
-            const rigid_connection_cfg_t *o = &c->connections[m];
-            if ((o->a == cn->a && o->b == cn->b) || (o->a == cn->b && o->b == cn->a)) {
-                return log_msg(log, STATUS_ERROR, RIGID_CAT, "connection %d duplicates connection %d (spheres %d-%d)",
-                               k, m, cn->a, cn->b);
-            }
-        }
-    }
-    if (!finite3(c->gravity)) {
-        return log_msg(log, STATUS_ERROR, RIGID_CAT, "gravity must be finite");
-    }
-    if (!(c->fluid_density >= 0.0) || !isfinite(c->fluid_density)) {
-        return bad(log, "fluid_density %g kg/m^3 must be >= 0 (limit %g)", c->fluid_density, 0.0);
-    }
-    if (c->contact_model != RIGID_CONTACT_NONE && c->contact_model != RIGID_CONTACT_SPRING_DASHPOT &&
-        c->contact_model != RIGID_CONTACT_HERTZ) {
-        return log_msg(log, STATUS_ERROR, RIGID_CAT, "contact_model %d unknown", (int)c->contact_model);
-    }
-    if (c->contact_model != RIGID_CONTACT_NONE) {
-        if (!(c->restitution > 0.0 && c->restitution <= 1.0)) {
-            return bad(log, "restitution %g must be in (0, %g]", c->restitution, 1.0);
-        }
-        if (!(c->friction >= 0.0) || !isfinite(c->friction)) {
-            return bad(log, "friction %g must be >= %g and finite", c->friction, 0.0);
-        }
-    }
-    if (c->contact_model == RIGID_CONTACT_SPRING_DASHPOT && !(c->contact_time > 0.0 && isfinite(c->contact_time))) {
-        return bad(log, "contact_time %g s must be > %g and finite", c->contact_time, 0.0);
-    }
-    if (c->contact_model == RIGID_CONTACT_HERTZ) {
-        if (!(c->young_modulus > 0.0) || !isfinite(c->young_modulus)) {
-            return bad(log, "young_modulus %g Pa must be > %g", c->young_modulus, 0.0);
-        }
-        if (!(c->poisson_ratio >= 0.0 && c->poisson_ratio < 0.5)) {
-            return bad(log, "poisson_ratio %g must be in [0, %g)", c->poisson_ratio, 0.5);
-        }
-    }
-    if (!(c->stick_speed >= 0.0) || !isfinite(c->stick_speed)) {
-        return bad(log, "stick_speed %g m/s must be >= %g and finite", c->stick_speed, 0.0);
-    }
-    const double fl[3] = {c->fuse_max_normal, c->fuse_max_shear, c->fuse_max_torque};
-    for (int m = 0; m < 3; m++) {
-        if (!(fl[m] >= 0.0)) {
-            return bad(log, "fuse limit %g must be >= %g (0 or inf = unbreakable)", fl[m], 0.0);
-        }
-    }
-    for (int a = 0; a < 3; a++) {
-        if ((c->walls[a][0] || c->walls[a][1]) &&
-            !(c->box_hi[a] > c->box_lo[a] && isfinite(c->box_lo[a]) && isfinite(c->box_hi[a]))) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "box along axis %d: need box_lo %g < box_hi %g for walls", a,
-                           c->box_lo[a], c->box_hi[a]);
-        }
-    }
-    if (c->integrator != RIGID_VERLET && c->integrator != RIGID_CVODE) {
-        return log_msg(log, STATUS_ERROR, RIGID_CAT, "integrator %d unknown", (int)c->integrator);
-    }
-    if (c->integrator == RIGID_CVODE) {
-        if (c->cvode_method != RIGID_ADAMS && c->cvode_method != RIGID_BDF) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "cvode_method %d unknown", (int)c->cvode_method);
-        }
-        if (c->linsol != RIGID_LS_DENSE && c->linsol != RIGID_LS_SPGMR) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "linsol %d unknown", (int)c->linsol);
-        }
-        if (!(c->rtol > 0.0 && c->rtol < 1.0)) {
-            return bad(log, "rtol %g must be in (0, %g)", c->rtol, 1.0);
-        }
-        if (!(c->atol > 0.0) || !isfinite(c->atol)) {
-            return bad(log, "atol %g must be > %g", c->atol, 0.0);
-        }
-    }
-    if (c->substeps < 1) {
-        return log_msg(log, STATUS_ERROR, RIGID_CAT, "substeps %d must be >= 1", c->substeps);
-    }
-    if (!isfinite(c->t0)) {
-        return log_msg(log, STATUS_ERROR, RIGID_CAT, "t0 must be finite");
-    }
-    return STATUS_OK;
-}
-
-/* Every body must be one piece: its spheres joined by touching/overlap. */
-static status_t check_connected(const rigid_config_t *c, const log_t *log, int *comp, int *stack)
-{
-    for (int i = 0; i < c->nspheres; i++) {
-        comp[i] = -1;
-    }
-    for (int b = 0; b < c->nbodies; b++) {
-        int first = -1;
-        for (int i = 0; i < c->nspheres; i++) {
-            if (c->spheres[i].body == b) {
-                first = i;
-                break;
-            }
-        }
-        if (first < 0) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "body %d has no spheres", b);
-        }
-        int top = 0;
-        stack[top++] = first;
-        comp[first] = b;
-        while (top > 0) {
-            int u = stack[--top];
-            for (int v = 0; v < c->nspheres; v++) {
-                if (comp[v] >= 0 || c->spheres[v].body != b) {
-                    continue;
-                }
-                double d[3];
-                rv_sub(c->spheres[u].center, c->spheres[v].center, d);
-                if (rv_norm(d) <= (c->spheres[u].radius + c->spheres[v].radius) * (1.0 + RIGID_TOUCH_TOL)) {
-                    comp[v] = b;
-                    stack[top++] = v;
-                }
-            }
-        }
-        for (int i = 0; i < c->nspheres; i++) {
-            if (c->spheres[i].body == b && comp[i] < 0) {
-                return log_msg(log, STATUS_ERROR, RIGID_CAT,
-                               "body %d is not one piece: sphere %d is not joined to sphere %d by a chain of touching "
-                               "or overlapping spheres of the body",
-                               b, i, first);
-            }
-        }
-    }
-    return STATUS_OK;
-}
 
 void rigid_free(rigid_t *r)
 {
@@ -242,7 +46,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
 {
     assert(cfg != NULL && out != NULL);
     *out = NULL;
-    status_t st = validate(cfg, log);
+    status_t st = rigid_config_validate(cfg, log);
     if (st != STATUS_OK) {
         return st;
     }
@@ -283,7 +87,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
         st = log_msg(log, STATUS_ERROR, RIGID_CAT, "out of memory");
         goto cleanup;
     }
-    if ((st = check_connected(cfg, log, members, ids)) != STATUS_OK) {
+    if ((st = rigid_config_check_connected(cfg, log, members, ids)) != STATUS_OK) {
         goto cleanup;
     }
     for (int b = 0; b < cfg->nbodies; b++) {
@@ -379,141 +183,6 @@ void rigid_set_sphere_drag(rigid_t *r, int sphere, double zt, double zr)
     r->spheres[sphere].drag_r = zr > 0.0 && isfinite(zr) ? zr : 0.0;
 }
 
-/* Solves the n x n system a x = b in place (Gaussian elimination with
- * partial pivoting; a is row-major and destroyed). Returns 0 when singular. */
-static int solve_small(int n, double *a, double *b)
-{
-    for (int k = 0; k < n; k++) {
-        int p = k;
-        for (int i = k + 1; i < n; i++) {
-            if (fabs(a[i * n + k]) > fabs(a[p * n + k])) {
-                p = i;
-            }
-        }
-        if (!(fabs(a[p * n + k]) > 0.0)) {
-            return 0;
-        }
-        if (p != k) {
-            for (int j = 0; j < n; j++) {
-                const double t = a[k * n + j];
-                a[k * n + j] = a[p * n + j];
-                a[p * n + j] = t;
-            }
-            const double t = b[k];
-            b[k] = b[p];
-            b[p] = t;
-        }
-        for (int i = k + 1; i < n; i++) {
-            const double f = a[i * n + k] / a[k * n + k];
-            for (int j = k; j < n; j++) {
-                a[i * n + j] -= f * a[k * n + j];
-            }
-            b[i] -= f * b[k];
-        }
-    }
-    for (int k = n - 1; k >= 0; k--) {
-        for (int j = k + 1; j < n; j++) {
-            b[k] -= a[k * n + j] * b[j];
-        }
-        b[k] /= a[k * n + k];
-    }
-    return 1;
-}
-
-/* The change of the held load of sphere i when its body's velocity changes
- * by dv and its angular velocity by dw (d: sphere centre minus body centre
- * of mass): df = -zt (dv + dw x d), dt = -zr dw about the sphere centre. */
-static void drag_response(const rigid_sphere_t *s, const double d[3], const double dv[3], const double dw[3],
-                          double df[3], double dt[3])
-{
-    double wxd[3];
-    rv_cross(dw, d, wxd);
-    for (int a = 0; a < 3; a++) {
-        df[a] = -s->drag_t * (dv[a] + wxd[a]);
-        dt[a] = -s->drag_r * dw[a];
-    }
-}
-
-/* Implicit coupling, before the integration of a step of length h: per body,
- * (M + h Z) x = h (F, T) with the mass matrix M = diag(m, m, m, I_world),
- * the body's total force and torque about its centre of mass at the start of
- * the step (load, gravity, contacts) and Z the response of the loads to
- * (dV, dW); x = (dV, dW) is the predicted change over the step and the held
- * load of every sphere becomes F_i - zt_i (dV + dW x d_i), T_i - zr_i dW. The
- * gyroscopic term is left out of the prediction (it only sets the size of a
- * correction that vanishes in steady motion). */
-static status_t implicit_load(rigid_t *r, double h)
-{
-    int any = 0;
-    for (int i = 0; i < r->nspheres; i++) {
-        memset(r->spheres[i].imp_f, 0, sizeof r->spheres[i].imp_f);
-        memset(r->spheres[i].imp_t, 0, sizeof r->spheres[i].imp_t);
-        any |= r->spheres[i].drag_t > 0.0 || r->spheres[i].drag_r > 0.0;
-    }
-    if (!any) {
-        return STATUS_OK;
-    }
-    if (rigid_forces(r, r->bodies, NULL) < 0) {
-        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "non-finite force at t=%.9g s before the step", r->t);
-    }
-    for (int b = 0; b < r->nbodies; b++) {
-        const rigid_body_t *bd = &r->bodies[b];
-        if (bd->fixed) {
-            continue;
-        }
-        double a[36] = {0}, x[6], iw[9];
-        rigid_body_inertia_world(bd, iw);
-        for (int k = 0; k < 3; k++) {
-            a[k * 6 + k] = bd->mass;
-            for (int j = 0; j < 3; j++) {
-                a[(3 + k) * 6 + 3 + j] = iw[3 * k + j];
-            }
-            x[k] = h * r->bf[3 * b + k];
-            x[3 + k] = h * r->bt[3 * b + k];
-        }
-        /* + h Z, column by column: Z e_k = -(dF, dT) for a unit change e_k */
-        int some = 0;
-        for (int i = 0; i < r->nspheres; i++) {
-            const rigid_sphere_t *s = &r->spheres[i];
-            if (s->body != b || (s->drag_t == 0.0 && s->drag_r == 0.0)) {
-                continue;
-            }
-            some = 1;
-            double c[3], d[3];
-            rigid_sphere_world(r, r->bodies, i, c, NULL, NULL);
-            rv_sub(c, bd->com, d);
-            for (int k = 0; k < 6; k++) {
-                double dv[3] = {0, 0, 0}, dw[3] = {0, 0, 0}, df[3], dt[3], tf[3];
-                (k < 3 ? dv : dw)[k % 3] = 1.0;
-                drag_response(s, d, dv, dw, df, dt);
-                rv_cross(d, df, tf);
-                for (int j = 0; j < 3; j++) {
-                    a[j * 6 + k] -= h * df[j];
-                    a[(3 + j) * 6 + k] -= h * (dt[j] + tf[j]);
-                }
-            }
-        }
-        if (!some) {
-            continue;
-        }
-        if (!solve_small(6, a, x)) {
-            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "implicit coupling: singular system for body %d at t=%.9g s",
-                           b, r->t);
-        }
-        for (int i = 0; i < r->nspheres; i++) {
-            rigid_sphere_t *s = &r->spheres[i];
-            if (s->body != b || (s->drag_t == 0.0 && s->drag_r == 0.0)) {
-                continue;
-            }
-            double c[3], d[3];
-            rigid_sphere_world(r, r->bodies, i, c, NULL, NULL);
-            rv_sub(c, bd->com, d);
-            drag_response(s, d, x, x + 3, s->imp_f, s->imp_t);
-        }
-    }
-    return STATUS_OK;
-}
-
 /* Step 1 of rigid_step: trapezoidal correction of the held load. */
 static void load_correction(rigid_t *r)
 {
@@ -552,7 +221,7 @@ status_t rigid_step(rigid_t *r, double h)
     if (r->have_prev && r->cfg.load_correction) {
         load_correction(r);
     }
-    status_t st = implicit_load(r, h);
+    status_t st = rigid_implicit_load(r, h);
     if (st != STATUS_OK) {
         return st;
     }

@@ -154,6 +154,19 @@ static inline void rq_mul(const double a[4], const double b[4], double c[4])
     c[3] = z;
 }
 
+/* ---- rigid_config.c: validation of the configuration ---- */
+/* Counts, ranges, connections and settings of c; the first violation is
+ * logged and returned (STATUS_ERROR). */
+status_t rigid_config_validate(const rigid_config_t *c, const log_t *log);
+/* Every body is one piece: its spheres joined by touching/overlap. comp and
+ * stack are scratch of c->nspheres ints each. */
+status_t rigid_config_check_connected(const rigid_config_t *c, const log_t *log, int *comp, int *stack);
+
+/* ---- implicit.c: implicit coupling ---- */
+/* Before the integration of a step of length h: each sphere's load
+ * correction imp_f, imp_t from its drag coefficients (zero without them). */
+status_t rigid_implicit_load(rigid_t *r, double h);
+
 /* ---- body.c: mass properties of the sphere shares ---- */
 /* Mass properties of the share of sphere i of a union (spheres given by
  * centres c and radii rad, n of them, all of one body): volume, centroid

@@ -1,0 +1,266 @@
+/* scene_check.c — why a scene is refused.
+ *
+ * The checks of single values (a range, a finite vector, a whole number) and
+ * of the scene's physical consistency: the domain a whole number of cells,
+ * spheres resolved and inside the domain, no overlap between bodies at
+ * start, walls for the plane-channel profile, at most half a cell per step at
+ * a sphere surface, time scales against the fluid step. A failing check
+ * reports key, value and allowed range (scene_report.c); an error refuses the
+ * scene, a warning is only logged. */
+#include "scene_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+
+static const double SCENE_DX_TOLERANCE = 1e-9; /* relative, for "size is a multiple of dx" */
+
+/* ------------------------------------------------------------------------ */
+/* Range checks of single values. Every failing check names key, value and
+ * allowed range (LO_OPEN, HI_OPEN, ALLOW_INF: scene_internal.h).           */
+
+bool scene_check_range(ctx_t *c, const char *key, double v, double lo, double hi, int flags)
+{
+    bool ok = !isnan(v) && (isfinite(v) || (flags & ALLOW_INF)) && ((flags & LO_OPEN) ? v > lo : v >= lo) &&
+              ((flags & HI_OPEN) ? v < hi : v <= hi);
+    if (!ok) {
+        scene_report_bad(c, key, "= %s: out of range; allowed: %s%s, %s%s", fmt_num(v).s, (flags & LO_OPEN) ? "(" : "[",
+                         fmt_num(lo).s, fmt_num(hi).s,
+                         ((flags & HI_OPEN) || (isinf(hi) && !(flags & ALLOW_INF))) ? ")" : "]");
+    }
+    return ok;
+}
+
+bool scene_check_vec(ctx_t *c, const char *key, const double *v, int n)
+{
+    for (int i = 0; i < n; i++) {
+        if (!isfinite(v[i])) {
+            scene_report_bad(c, key, "= %s: component %d is not a finite number; allowed: finite numbers",
+                             fmt_vec(v, n).s, i);
+            return false;
+        }
+    }
+    return true;
+}
+
+/* A whole number in [lo, hi] read as a double (see raw structs). */
+bool scene_check_int(ctx_t *c, const char *key, double v, double lo, double hi)
+{
+    bool ok = isfinite(v) && v == floor(v) && v >= lo && v <= hi;
+    if (!ok) {
+        scene_report_bad(c, key, "= %s: not a whole number in range; allowed: an integer in [%s, %s]", fmt_num(v).s,
+                         fmt_num(lo).s, fmt_num(hi).s);
+    }
+    return ok;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Consistency of the scene as a whole, in the order scene_build runs them. */
+
+void scene_check_divisible(ctx_t *c, const scene_t *s)
+{
+    double dx = s->fluid.dx;
+    for (int a = 0; a < 3; a++) {
+        double n = s->domain.size[a] / dx;
+        double nr = round(n);
+        if (nr < 1 || fabs(n - nr) > SCENE_DX_TOLERANCE * n) {
+            scene_report_bad(c, "domain.size",
+                             "= %s: the %c extent %s m is %s cells of fluid.dx = %s m; allowed: a whole number "
+                             "(>= 1) of cells (relative tolerance %s)",
+                             fmt_vec(s->domain.size, 3).s, AXIS_NAMES[a], fmt_num(s->domain.size[a]).s, fmt_num(n).s,
+                             fmt_num(dx).s, fmt_num(SCENE_DX_TOLERANCE).s);
+        }
+    }
+}
+
+static bool axis_periodic(const scene_t *s, int a)
+{
+    return s->domain.faces[2 * a].type == FACE_PERIODIC;
+}
+
+void scene_check_spheres(ctx_t *c, const scene_t *s, bool domain_ok, bool dx_ok)
+{
+    char key[SCENE_KEY_MAX];
+    int g = 0;
+    for (int i = 0; i < s->nbodies; i++) {
+        const scene_body_t *b = &s->bodies[i];
+        for (int k = 0; k < b->nspheres; k++, g++) {
+            const scene_sphere_t *sp = &b->spheres[k];
+            if (!(sp->radius > 0) || !isfinite(sp->radius)) {
+                continue; /* already reported */
+            }
+            snprintf(key, sizeof key, "bodies.%d.spheres.%d.radius", i, k);
+            if (dx_ok && sp->radius < SCENE_MIN_RADIUS_CELLS * s->fluid.dx * (1 - 1e-12)) {
+                scene_report_bad(c, key,
+                                 "= %s m is %s cells of fluid.dx = %s m (sphere %d); allowed: at least %s cells = %s m",
+                                 fmt_num(sp->radius).s, fmt_num(sp->radius / s->fluid.dx).s, fmt_num(s->fluid.dx).s, g,
+                                 fmt_num(SCENE_MIN_RADIUS_CELLS).s, fmt_num(SCENE_MIN_RADIUS_CELLS * s->fluid.dx).s);
+            }
+            if (!domain_ok) {
+                continue;
+            }
+            snprintf(key, sizeof key, "bodies.%d.spheres.%d.center", i, k);
+            for (int a = 0; a < 3; a++) {
+                double x = sp->center[a], r = sp->radius, L = s->domain.size[a];
+                if (!isfinite(x)) {
+                    break;
+                }
+                if (axis_periodic(s, a)) {
+                    if (!(x >= 0 && x < L)) {
+                        scene_report_bad(c, key,
+                                         "= %s (sphere %d): the %c coordinate %s is outside the periodic "
+                                         "domain; allowed: %c in [0, %s)",
+                                         fmt_vec(sp->center, 3).s, g, AXIS_NAMES[a], fmt_num(x).s, AXIS_NAMES[a],
+                                         fmt_num(L).s);
+                    } else if (2 * r > L) {
+                        scene_report_bad(c, key,
+                                         "= %s (sphere %d): diameter %s m exceeds the periodic length %s m "
+                                         "along %c, so the sphere overlaps its own image; allowed: radius <= %s m",
+                                         fmt_vec(sp->center, 3).s, g, fmt_num(2 * r).s, fmt_num(L).s,
+                                         AXIS_NAMES[a], fmt_num(L / 2).s);
+                    }
+                } else if (!(x - r >= 0 && x + r <= L)) {
+                    scene_report_bad(c, key,
+                                     "= %s with radius %s (sphere %d) reaches outside the walls along %c: "
+                                     "[%s, %s]; allowed: %c in [%s, %s]",
+                                     fmt_vec(sp->center, 3).s, fmt_num(r).s, g, AXIS_NAMES[a], fmt_num(x - r).s,
+                                     fmt_num(x + r).s, AXIS_NAMES[a], fmt_num(r).s, fmt_num(L - r).s);
+                }
+            }
+        }
+    }
+}
+
+/* Spheres of different bodies must not overlap at start; on periodic axes
+ * the nearest image counts. O(n^2), fine for the few thousand spheres of a
+ * scene. Spheres of one body may overlap (sintered). */
+void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok)
+{
+    char key[SCENE_KEY_MAX];
+    int gi = 0;
+    for (int i = 0; i < s->nbodies; i++) {
+        for (int k = 0; k < s->bodies[i].nspheres; k++, gi++) {
+            const scene_sphere_t *p = &s->bodies[i].spheres[k];
+            int gj = gi - k + s->bodies[i].nspheres;
+            for (int j = i + 1; j < s->nbodies; j++) {
+                for (int l = 0; l < s->bodies[j].nspheres; l++, gj++) {
+                    const scene_sphere_t *q = &s->bodies[j].spheres[l];
+                    double d2 = 0;
+                    for (int a = 0; a < 3; a++) {
+                        double d = p->center[a] - q->center[a];
+                        if (domain_ok && axis_periodic(s, a)) {
+                            d -= s->domain.size[a] * round(d / s->domain.size[a]);
+                        }
+                        d2 += d * d;
+                    }
+                    double dist = sqrt(d2), rsum = p->radius + q->radius;
+                    if (dist < rsum) {
+                        snprintf(key, sizeof key, "bodies.%d.spheres.%d.center", j, l);
+                        scene_report_bad(c, key,
+                                         "= %s (sphere %d, body %d) overlaps sphere %d of body %d at %s: "
+                                         "centre distance %s m < sum of radii %s m; allowed: distance >= sum "
+                                         "of radii for spheres of different bodies",
+                                         fmt_vec(q->center, 3).s, gj, j, gi, i, fmt_vec(p->center, 3).s,
+                                         fmt_num(dist).s, fmt_num(rsum).s);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/* A sphere surface point must not move more than half a cell per LBM step
+ * (the link lists and refill assume it). The body's reference point is the
+ * volume-weighted centroid of its spheres (overlaps ignored): an estimate,
+ * good enough for a start-up check. Prescribed motion is known to keep that
+ * speed, so it is an error; free motion is only a warning. */
+void scene_check_speeds(ctx_t *c, const scene_t *s)
+{
+    char key[SCENE_KEY_MAX];
+    double limit = 0.5 * s->fluid.dx / s->fluid.dt;
+    for (int i = 0; i < s->nbodies; i++) {
+        const scene_body_t *b = &s->bodies[i];
+        if (b->motion == MOTION_FIXED) {
+            continue;
+        }
+        double cen[3] = {0, 0, 0}, vol = 0;
+        for (int k = 0; k < b->nspheres; k++) {
+            double w = pow(b->spheres[k].radius, 3);
+            vol += w;
+            for (int a = 0; a < 3; a++) {
+                cen[a] += w * b->spheres[k].center[a];
+            }
+        }
+        double reach = 0;
+        for (int k = 0; k < b->nspheres; k++) {
+            double d2 = 0;
+            for (int a = 0; a < 3; a++) {
+                double d = b->spheres[k].center[a] - cen[a] / vol;
+                d2 += d * d;
+            }
+            reach = fmax(reach, sqrt(d2) + b->spheres[k].radius);
+        }
+        const double *v = b->velocity, *w = b->angular_velocity;
+        double speed = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) * reach;
+        if (!(speed <= limit)) {
+            snprintf(key, sizeof key, "bodies.%d.velocity", i);
+            scene_report(c, b->motion == MOTION_PRESCRIBED ? STATUS_ERROR : STATUS_WARNING, key,
+                         "= %s with angular velocity %s moves a surface point up to %s m/s = %s cells per "
+                         "step; allowed: at most 0.5 cells per step = %s m/s (fluid.dx / (2 fluid.dt))",
+                         fmt_vec(v, 3).s, fmt_vec(w, 3).s, fmt_num(speed).s,
+                         fmt_num(speed * s->fluid.dt / s->fluid.dx).s, fmt_num(limit).s);
+        }
+    }
+}
+
+/* fluid.initial_profile = plane_channel needs exactly one axis with walls
+ * (no_slip or moving_wall on both faces); the others periodic or free-slip. */
+void scene_check_initial_profile(ctx_t *c, scene_t *s)
+{
+    scene_fluid_t *f = &s->fluid;
+    if (f->initial_profile != INITIAL_PLANE_CHANNEL) {
+        return;
+    }
+    int axis = -1, nwalled = 0;
+    for (int a = 0; a < 3; a++) {
+        face_type_t t0 = s->domain.faces[2 * a].type, t1 = s->domain.faces[2 * a + 1].type;
+        bool wall0 = t0 == FACE_NO_SLIP || t0 == FACE_MOVING_WALL, wall1 = t1 == FACE_NO_SLIP || t1 == FACE_MOVING_WALL;
+        bool open0 = t0 == FACE_PERIODIC || t0 == FACE_FREE_SLIP, open1 = t1 == FACE_PERIODIC || t1 == FACE_FREE_SLIP;
+        if (wall0 && wall1) {
+            axis = a;
+            nwalled++;
+        } else if (!(open0 && open1)) {
+            nwalled = 99; /* an inlet, an outlet or one wall only */
+        }
+    }
+    if (nwalled != 1) {
+        scene_report_bad(c, "fluid.initial_profile",
+                         "= plane_channel needs exactly one axis bounded by two walls (no_slip or moving_wall) "
+                         "and the other faces periodic or free_slip; allowed otherwise: uniform");
+        return;
+    }
+    f->channel_axis = axis;
+}
+
+void scene_check_time_scales(ctx_t *c, const scene_t *s)
+{
+    /* dt derived from tau carries round-off: one step is "at least dt within 1e-9" */
+    double dt = s->fluid.dt * (1.0 - 1e-9);
+    if (s->run.output_interval > 0 && s->run.output_interval < dt) {
+        scene_report_warn(c, "run.output_interval",
+                          "= %s s is shorter than one fluid step fluid.dt = %s s; output every step",
+                          fmt_num(s->run.output_interval).s, fmt_num(s->fluid.dt).s);
+    }
+    if (s->run.end_time > 0 && s->run.end_time < dt) {
+        scene_report_warn(c, "run.end_time", "= %s s is shorter than one fluid step fluid.dt = %s s",
+                          fmt_num(s->run.end_time).s, fmt_num(s->fluid.dt).s);
+    }
+    double rigid_dt = s->fluid.dt / s->rigid.substeps;
+    if (s->contacts.model == CONTACT_SPRING_DASHPOT && s->contacts.contact_time > 0 &&
+        s->contacts.contact_time < 10 * rigid_dt) {
+        scene_report_warn(c, "contacts.contact_time",
+                          "= %s s spans only %s rigid steps of fluid.dt / rigid.substeps = %s s; at least 10 "
+                          "are advised (raise rigid.substeps)",
+                          fmt_num(s->contacts.contact_time).s, fmt_num(s->contacts.contact_time / rigid_dt).s,
+                          fmt_num(rigid_dt).s);
+    }
+}
