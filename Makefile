@@ -16,19 +16,19 @@ LDLIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsu
 SCENE    ?= models/sinking_sphere.yaml
 
 COMMON_SRC  := common/status.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
-               common/scene_build.c common/scene_check.c
+               common/scene_build.c common/scene_check.c common/coupling.c
 FLUID_SRC   := fluid/lattice.c fluid/kernel.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
                fluid/spheres.c fluid/state.c fluid/initial_profile.c fluid/fluid.c
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
                rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \
-               rigid/rigid_scene.c
+               rigid/rigid_scene.c rigid/pairs.c rigid/lubrication.c
 COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/fmu.c coupler/output.c coupler/export.c \
                common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c \
                tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/test_spheres.c tests/common/test_scene.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
                tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
-               tests/rigid/test_input.c
+               tests/rigid/test_input.c tests/rigid/test_lubrication.c tests/rigid/test_walls.c
 
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))

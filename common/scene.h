@@ -63,7 +63,7 @@ typedef struct {
     boundary_scheme_t boundary_scheme;
     refill_t refill;
     force_method_t force_method;
-    int force_averaging;        /* average force over two steps */
+    int force_averaging;        /* average force over two steps: 1, 0, or -1 = not given (per body, common/coupling.h) */
 } scene_fluid_t;
 
 typedef enum { MOTION_FREE, MOTION_FIXED, MOTION_PRESCRIBED } motion_t;
@@ -90,10 +90,18 @@ typedef struct {
 
 typedef enum { CONTACT_NONE, CONTACT_SPRING_DASHPOT, CONTACT_HERTZ } contact_model_t;
 
+/* Lubrication correction for close approaches (rigid/lubrication.c). */
+typedef struct {
+    int enabled;    /* default: on where contacts are on (model != none) */
+    double cutoff;  /* surface gap below which it acts, in cells of fluid.dx */
+    double min_gap; /* m, where it saturates; 1e-3 of the smallest sphere radius by default (0 without spheres) */
+} scene_lubrication_t;
+
 typedef struct {
     contact_model_t model;
+    scene_lubrication_t lubrication;
     double restitution;   /* (0, 1] */
-    double contact_time;  /* s */
+    double contact_time;  /* s; 10 fluid steps by default */
     double friction;      /* Coulomb coefficient, 0 = off */
     double young_modulus; /* Pa, Hertz */
     double poisson_ratio; /* Hertz */
@@ -105,10 +113,11 @@ typedef enum { CVODE_ADAMS, CVODE_BDF } cvode_method_t;
 typedef enum { LINSOL_DENSE, LINSOL_SPGMR } linsol_t;
 
 /* Hydrodynamic coupling: explicit (the load of the last fluid step held over
- * the rigid step) or implicit (the fluid also publishes each sphere's drag
+ * the rigid step), implicit (the fluid also publishes each sphere's drag
  * coefficients, the load's instantaneous response to the sphere velocity,
- * and the rigid step treats that part implicitly; README "Implicit coupling"). */
-typedef enum { COUPLING_EXPLICIT, COUPLING_IMPLICIT } coupling_t;
+ * and the rigid step treats that part implicitly; README "Implicit coupling")
+ * or auto (the default: chosen per body, common/coupling.h). */
+typedef enum { COUPLING_EXPLICIT, COUPLING_IMPLICIT, COUPLING_AUTO } coupling_t;
 
 typedef struct {
     integrator_t integrator;

@@ -4,7 +4,8 @@
  * of the scene's physical consistency: the domain a whole number of cells,
  * spheres resolved and inside the domain, no overlap between bodies at
  * start, walls for the plane-channel profile, at most half a cell per step at
- * a sphere surface, time scales against the fluid step. A failing check
+ * a sphere surface, time scales against the fluid step, the lubrication
+ * film's saturation gap below its cut-off. A failing check
  * reports key, value and allowed range (scene_report.c); an error refuses the
  * scene, a warning is only logged. */
 #include "scene_internal.h"
@@ -263,4 +264,20 @@ void scene_check_time_scales(ctx_t *c, const scene_t *s)
                           fmt_num(s->contacts.contact_time).s, fmt_num(s->contacts.contact_time / rigid_dt).s,
                           fmt_num(rigid_dt).s);
     }
+}
+
+/* The lubrication film force saturates at min_gap before it vanishes at the
+ * cut-off: min_gap (m) must lie below cutoff (cells) x fluid.dx. */
+void scene_check_lubrication(ctx_t *c, const scene_t *s)
+{
+    const scene_lubrication_t *l = &s->contacts.lubrication;
+    double hc = l->cutoff * s->fluid.dx;
+    if (!l->enabled || scene_total_spheres(s) == 0 || l->min_gap < hc) {
+        return;
+    }
+    scene_report_bad(c, "contacts.lubrication.min_gap",
+                     "= %s m is not below the cut-off contacts.lubrication.cutoff x fluid.dx = %s x %s m = %s m; "
+                     "allowed: (0, %s) m (default: 1e-3 of the smallest sphere radius)",
+                     fmt_num(l->min_gap).s, fmt_num(l->cutoff).s, fmt_num(s->fluid.dx).s, fmt_num(hc).s,
+                     fmt_num(hc).s);
 }

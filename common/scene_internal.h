@@ -84,8 +84,14 @@ typedef struct {
 } raw_connection_t;
 
 typedef struct {
+    int *enabled;
+    double *cutoff, *min_gap;
+} raw_lubrication_t;
+
+typedef struct {
     contact_model_t *model;
     double *restitution, *contact_time, *friction, *young_modulus, *poisson_ratio, *stick_speed;
+    raw_lubrication_t *lubrication;
 } raw_contacts_t;
 
 typedef struct {
@@ -246,5 +252,6 @@ void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok);
 void scene_check_initial_profile(ctx_t *c, scene_t *s); /* sets fluid.channel_axis */
 void scene_check_speeds(ctx_t *c, const scene_t *s);
 void scene_check_time_scales(ctx_t *c, const scene_t *s);
+void scene_check_lubrication(ctx_t *c, const scene_t *s);
 
 #endif

@@ -39,7 +39,8 @@ static const cyaml_strval_t FORCE_NAMES[] = {{"momentum_exchange", FORCE_MOMENTU
                                              {"galilean", FORCE_GALILEAN}};
 static const cyaml_strval_t INITIAL_NAMES[] = {{"uniform", INITIAL_UNIFORM},
                                                 {"plane_channel", INITIAL_PLANE_CHANNEL}};
-static const cyaml_strval_t COUPLING_NAMES[] = {{"explicit", COUPLING_EXPLICIT}, {"implicit", COUPLING_IMPLICIT}};
+static const cyaml_strval_t COUPLING_NAMES[] = {
+    {"auto", COUPLING_AUTO}, {"explicit", COUPLING_EXPLICIT}, {"implicit", COUPLING_IMPLICIT}};
 static const cyaml_strval_t MOTION_NAMES[] = {
     {"free", MOTION_FREE}, {"fixed", MOTION_FIXED}, {"prescribed", MOTION_PRESCRIBED}};
 static const cyaml_strval_t CONTACT_NAMES[] = {
@@ -138,8 +139,16 @@ static const cyaml_schema_value_t CONNECTION_SCHEMA = {
     CYAML_VALUE_MAPPING(CYAML_FLAG_DEFAULT, raw_connection_t, CONNECTION_FIELDS),
 };
 
+static const cyaml_schema_field_t LUBRICATION_FIELDS[] = {
+    ENUM_FIELD("enabled", raw_lubrication_t, enabled, BOOL_NAMES),
+    CYAML_FIELD_FLOAT_PTR("cutoff", OPT, raw_lubrication_t, cutoff),
+    CYAML_FIELD_FLOAT_PTR("min_gap", OPT, raw_lubrication_t, min_gap),
+    CYAML_FIELD_END,
+};
+
 static const cyaml_schema_field_t CONTACTS_FIELDS[] = {
     ENUM_FIELD("model", raw_contacts_t, model, CONTACT_NAMES),
+    CYAML_FIELD_MAPPING_PTR("lubrication", OPT, raw_contacts_t, lubrication, LUBRICATION_FIELDS),
     CYAML_FIELD_FLOAT_PTR("restitution", OPT, raw_contacts_t, restitution),
     CYAML_FIELD_FLOAT_PTR("contact_time", OPT, raw_contacts_t, contact_time),
     CYAML_FIELD_FLOAT_PTR("friction", OPT, raw_contacts_t, friction),

@@ -168,7 +168,13 @@ class Reader:
         for i in range(ns):
             for q in SPHERE_Q:
                 for a in "xyz":
-                    self._real(f"sphere[{i}].{q}.{a}", ("sphere", q, i, "xyz".index(a)))
+                    # the load that acted over the step: rigid.fmu's applied load under the
+                    # implicit coupling, else the fluid's (as coupler/run.c)
+                    applied = f"sphere[{i}].applied_{q}.{a}"
+                    if q in ("force", "torque") and find([rigid], applied, "Real")[0] is not None:
+                        self._real(applied, ("sphere", q, i, "xyz".index(a)))
+                    else:
+                        self._real(f"sphere[{i}].{q}.{a}", ("sphere", q, i, "xyz".index(a)))
             f, vr = find([rigid], f"sphere[{i}].body", "Integer")
             if f is not None:
                 self.body_vr.append(vr)

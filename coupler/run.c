@@ -211,6 +211,15 @@ static status_t plan_observation(master_t *m)
     for (int i = 0; i < ns && st == STATUS_OK; i++) {
         for (int q = 0; q < NSPHERE_Q && st == STATUS_OK; q++) {
             for (int a = 0; a < 3 && st == STATUS_OK; a++) {
+                /* the load: what acted over the step (rigid.fmu's applied
+                 * load under the implicit coupling), else the fluid's */
+                if (q == R_FORCE || q == R_TORQUE) {
+                    snprintf(name, sizeof name, "sphere[%d].applied_%s.%c", i, SPHERE_Q[q], AXIS[a]);
+                    st = observe(m, name, FMU_REAL, q * 3 * ns + 3 * i + a, 0);
+                    if (st != STATUS_DISCARD) {
+                        continue;
+                    }
+                }
                 snprintf(name, sizeof name, "sphere[%d].%s.%c", i, SPHERE_Q[q], AXIS[a]);
                 st = observe(m, name, FMU_REAL, q * 3 * ns + 3 * i + a, 1);
             }

@@ -174,7 +174,7 @@ void fluid_free(fluid_t *fl)
  * mean of the last two when fluid.force_averaging is set. */
 static void delivered_load(const fluid_t *fl, const sphere_t *p, double force[3], double torque[3])
 {
-    const int avg = fl->spheres.averaging && fl->step > 1;
+    const int avg = p->averaging && fl->step > 1;
     for (int a = 0; a < 3; a++) {
         force[a] = avg ? 0.5 * (p->f[a] + p->fprev[a]) : p->f[a];
         torque[a] = avg ? 0.5 * (p->t[a] + p->tprev[a]) : p->t[a];
@@ -190,13 +190,25 @@ static void delivered_load(const fluid_t *fl, const sphere_t *p, double force[3]
  * signal of amplitude A is +-4A with alternating sign, of a smooth signal
  * about 0. WATCH_STEPS steps in a row with d_n . d_(n-1) < 0 and |d_n|/4
  * above WATCH_AMPLITUDE of the mean load |L_n + L_(n-1)|/2 (force, or
- * torque / radius; at least the Stokes drag of the sphere's motion) raise one warning per sphere, with the remedies, unless
- * the amplitude has meanwhile fallen below half of what it was at the start
- * of the run: the start-up transient of a particle released from rest or set
- * in motion at once flips too, but decays. */
-enum { WATCH_STEPS = 30 };
+ * torque / radius; at least the Stokes drag of the sphere's motion) raise one
+ * warning per sphere, with the remedies, unless the oscillation decays: the
+ * start-up transient of a particle released from rest or set in motion at once
+ * (the dual star's first steps in shear) flips too, but its amplitude falls.
+ * So after WATCH_STEPS alternating steps the absolute amplitude is compared
+ * with the one at the start of the window: below WATCH_DECAY of it the window
+ * starts again (a transient), otherwise (persistent) it warns. A growing
+ * oscillation may wreck the run sooner (an unstable light sphere moves more
+ * than a cell per step within 15-25 steps): when the amplitude has grown in
+ * each of WATCH_GROW_STEPS alternating steps in a row, to WATCH_GROW times
+ * its value where that growth began or more, it warns at once, before the
+ * failure it explains. (Growth every step, not merely a larger amplitude:
+ * the lattice noise of a sphere started at speed from rest, whose signs
+ * alternate by chance for a few steps, grew by 2 in 6 steps but not steadily.) */
+enum { WATCH_STEPS = 30, WATCH_GROW_STEPS = 6 };
 static const double PI = 3.14159265358979323846;
 static const double WATCH_AMPLITUDE = 0.02;
+static const double WATCH_DECAY = 0.9;
+static const double WATCH_GROW = 4.0;
 
 static status_t watch_period_two(fluid_t *fl)
 {
@@ -234,7 +246,7 @@ static status_t watch_period_two(fluid_t *fl)
                              sqrt(p->w[0] * p->w[0] + p->w[1] * p->w[1] + p->w[2] * p->w[2]) * p->r;
         const double scale = fmax(fmax(sqrt(fmax(mf, mt)), 6.0 * PI * nu * p->r * speed), 1e-300);
         int alternating = 0;
-        double amp = 0.0;
+        double amp = 0.0, amp_abs = 0.0;
         for (int o = 0; o < 6; o += 3) {
             double d2 = 0.0, dot = 0.0;
             for (int a = o; a < o + 3; a++) {
@@ -246,27 +258,38 @@ static status_t watch_period_two(fluid_t *fl)
             if (dot < 0.0 && rel > WATCH_AMPLITUDE) {
                 alternating = 1;
                 amp = fmax(amp, rel);
+                amp_abs = fmax(amp_abs, 0.25 * sqrt(d2));
             }
         }
         p->nalt = alternating ? p->nalt + 1 : 0;
         if (p->nalt == 1) {
-            p->amp0 = amp;
+            p->amp0 = amp_abs;
         }
-        if (p->nalt >= WATCH_STEPS && amp < 0.5 * p->amp0) {
-            p->nalt = 0; /* a decaying transient (a particle set in motion at once): watch on */
+        if (alternating && p->nalt > 1 && amp_abs > p->amp_prev) {
+            p->ngrow++;
+        } else {
+            p->ngrow = 0;
+            p->amp_grow0 = amp_abs;
         }
-        if (p->nalt >= WATCH_STEPS) {
+        p->amp_prev = amp_abs;
+        if (p->nalt >= WATCH_STEPS && amp_abs < WATCH_DECAY * p->amp0) {
+            p->nalt = 1; /* decaying (a start-up transient): a new window from here */
+            p->amp0 = amp_abs;
+        }
+        const int growing = p->ngrow >= WATCH_GROW_STEPS && amp_abs >= WATCH_GROW * p->amp_grow0;
+        if (p->nalt >= WATCH_STEPS || growing) {
             p->warned = 1;
             const double dx = fl->units.dx;
             st = status_worst(st, log_msg(&fl->log, STATUS_WARNING, "fluid",
                 "%s: sphere %d (radius %.3g cells, density ratio %.3g) at (%.4g, %.4g, %.4g) m, step %ld (t = %.6g s): "
                 "its hydrodynamic load has alternated every step for %d steps (period-2 oscillation, amplitude %.3g%% "
-                "of the mean load): explicit coupling of a light or small particle, whose boundary force reacts at once "
-                "to its velocity (an added-mass type instability). Remedies: rigid.coupling: implicit together with "
-                "fluid.force_averaging: true (stable down to density ratio 0.03 at radius 3 cells), or averaging "
-                "alone, more cells per radius (fluid.dx), a smaller time step (fluid.tau)",
+                "of the mean load%s): explicit coupling of a light or small particle, whose boundary force reacts at once "
+                "to its velocity (an added-mass type instability). Remedies: rigid.coupling: auto or implicit "
+                "(the default auto picks implicit for this body unless set otherwise) with fluid.force_averaging "
+                "true or not set (stable down to density ratio 0.03 at radius 3 cells), more cells per radius "
+                "(fluid.dx), a smaller time step (fluid.tau)",
                 fl->path, i, p->r, p->density_ratio, (p->c[0] - 0.5) * dx, (p->c[1] - 0.5) * dx,
-                (p->c[2] - 0.5) * dx, fl->step, fluid_time(fl), WATCH_STEPS, 100.0 * amp));
+                (p->c[2] - 0.5) * dx, fl->step, fluid_time(fl), p->nalt, 100.0 * amp, growing ? ", growing" : ""));
         }
     }
     return st;

@@ -38,6 +38,7 @@
  * 1e-9 relative). The inputs are held over the step (zero-order hold): a
  * free sphere stays where its position input puts it for all k LBM steps,
  * with the surface velocity of its velocity inputs. */
+#include "../common/coupling.h"
 #include "../common/fmi_adapter.h"
 #include "../common/h5fields.h"
 #include "fluid.h"
@@ -184,9 +185,10 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
             goto done;
         }
     }
-    for (int b = 0, i = 0; b < s->nbodies && s->rigid.coupling == COUPLING_IMPLICIT; b++) {
+    for (int b = 0, i = 0; b < s->nbodies; b++) {
+        const int implicit = coupling_of_body(s, b).coupling == COUPLING_IMPLICIT; /* free bodies only */
         for (int k = 0; k < s->bodies[b].nspheres; k++, i++) {
-            if (s->bodies[b].motion != MOTION_FREE) {
+            if (!implicit) {
                 continue;
             }
             if (!fmi_vars_add_drag(&vs, FMI_OUTPUT, i, Q_DRAG, Q_ROTATIONAL_DRAG)) {

@@ -4,6 +4,8 @@
  * small next to the O(volume) kernel. */
 #include "spheres.h"
 
+#include "../common/coupling.h"
+
 #include "boundary.h"
 #include "lattice.h"
 #include "refill.h"
@@ -117,7 +119,6 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     sp->scheme = s->fluid.boundary_scheme;
     sp->refill = s->fluid.refill;
     sp->force = s->fluid.force_method;
-    sp->averaging = s->fluid.force_averaging;
     sp->first = 1;
     sp->omega_minus = u->omega_minus;
     for (int a = 0; a < 3; a++) {
@@ -152,6 +153,7 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
             p->body = b;
             p->motion = body->motion;
             p->density_ratio = body->density / s->fluid.density;
+            p->averaging = coupling_of_body(s, b).averaging;
             p->r = body->spheres[i].radius / u->dx;
             double rel[3];
             for (int a = 0; a < 3; a++) {

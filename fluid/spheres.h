@@ -37,11 +37,13 @@ typedef struct {
     double fprev[3], tprev[3];
     double zt, zr;           /* drag coefficients of the last step: -dF/dv and -dT/dw (isotropic parts) */
     double density_ratio;    /* particle / fluid density */
+    int averaging;           /* deliver the load averaged over two steps (common/coupling.h) */
     /* period-2 watch (fluid.c): the last three delivered loads (force,
      * torque), steps in a row that alternate, warned once */
     double hist[3][6], hist_d[6]; /* loads L_n, L_(n-1), L_(n-2); the last second difference */
     double amp0;                  /* amplitude at the start of the current alternating run */
-    int nhist, nalt, warned;
+    double amp_prev, amp_grow0;   /* last amplitude; amplitude where the current growing run began */
+    int nhist, nalt, ngrow, warned;
 } sphere_t;
 
 typedef struct {
@@ -71,7 +73,6 @@ typedef struct {
     boundary_scheme_t scheme;
     refill_t refill;
     force_method_t force;
-    int averaging;
     int first;
     double omega_minus;
     double body_force[3]; /* lattice: the equilibrium velocity is (j~ - F/2)/rho */

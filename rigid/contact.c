@@ -1,5 +1,9 @@
 /* contact.c — the contact force laws between spheres of different bodies and
- * between a sphere and a solid wall of the box.
+ * between a sphere and a wall face of the box (every non-periodic face: no-slip,
+ * free-slip, moving, inlet, outlet; a wall has infinite mass and the
+ * same material). The pairs, their nearest periodic image and the relative
+ * velocity at the contact point (against a moving wall's velocity) come from
+ * pairs.c.
  *
  * Normal force along n (from sphere i to the other partner) for an overlap
  * delta > 0 and an approach speed ddelta = (v_i - v_j).n at the contact point:
@@ -22,7 +26,13 @@
  *   threshold the tangential slip is damped on the contact time scale, which
  *   keeps the law continuous for CVODE.
  * m_eff = m_i m_j / (m_i + m_j); a fixed body has infinite mass.
- * omega0 = sqrt(k/m_eff) is returned for the Verlet stability check. */
+ * omega0 = sqrt(k/m_eff) is returned for the Verlet stability check.
+ *
+ * Faults (r->fault, rigid_fault_report): an overlap deeper than a radius (the
+ * contact is too soft for the impact or the step too long), and, without a
+ * contact model, a sphere of a free body that reaches a wall (gap <= 0): a
+ * body must never leave the domain silently. Spheres of different bodies
+ * without a contact model pass through each other, as in the paper. */
 #include "rigid_internal.h"
 
 #ifndef M_PI
@@ -118,106 +128,88 @@ static double contact_apply(rigid_t *r, int i, int j, const double n[3], double 
     return law.omega0;
 }
 
-/* Sphere-sphere and sphere-wall contacts. Returns >0 if an overlap exceeds a
- * radius (recoverable: the step was too long). */
-int rigid_contacts(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], rigid_contact_info_t *worst)
+/* Records the first fault of a force evaluation. */
+static int fault(rigid_t *r, rigid_fault_kind_t kind, const rigid_pair_t *p)
 {
+    if (r->fault.kind == RIGID_FAULT_NONE) {
+        r->fault = (rigid_fault_t){kind, p->i, p->j, p->gap};
+    }
+    return 1;
+}
+
+typedef struct {
+    const double (*x)[3];
+    rigid_contact_info_t *worst;
+} contact_ctx_t;
+
+static int contact_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t *p, void *ctx)
+{
+    const contact_ctx_t *c = ctx;
     const rigid_config_t *cfg = &r->cfg;
-    int bad = 0;
+    const rigid_sphere_t *si = &r->spheres[p->i];
     if (cfg->contact_model == RIGID_CONTACT_NONE) {
+        /* spheres of different bodies pass through each other (the paper's
+         * setting); a wall stops the run instead of being crossed silently */
+        return p->j < 0 ? fault(r, RIGID_FAULT_NO_MODEL, p) : 0;
+    }
+    if (!(p->gap < 0.0)) {
         return 0;
     }
-    for (int i = 0; i < r->nspheres; i++) {
-        const rigid_sphere_t *si = &r->spheres[i];
-        const rigid_body_t *bi = &bodies[si->body];
-        for (int j = i + 1; j < r->nspheres; j++) {
-            const rigid_sphere_t *sj = &r->spheres[j];
-            if (sj->body == si->body) {
-                continue;
-            }
-            const rigid_body_t *bj = &bodies[sj->body];
-            if (bi->fixed && bj->fixed) {
-                continue;
-            }
-            double dv[3];
-            rv_sub(x[j], x[i], dv);
-            double d = rv_norm(dv);
-            double delta = si->radius + sj->radius - d;
-            if (!(delta > 0.0)) {
-                continue;
-            }
-            /* the spheres of a broken sintered neck overlap by the neck: only
-             * an approach closer than at the break is a contact */
-            delta = rigid_contact_reference(r, i, j) - d;
-            if (!(delta > 0.0)) {
-                continue;
-            }
-            if (delta > fmin(si->radius, sj->radius) || d == 0.0) {
-                bad = 1;
-                continue;
-            }
-            double n[3] = {dv[0] / d, dv[1] / d, dv[2] / d}, pc[3], vrel[3];
-            for (int a = 0; a < 3; a++) {
-                pc[a] = x[i][a] + (si->radius - 0.5 * delta) * n[a];
-            }
-            double wi[3], wj[3], ai[3], aj[3], ui[3], uj[3];
-            rigid_body_omega(bi, wi);
-            rigid_body_omega(bj, wj);
-            rv_sub(pc, bi->com, ai);
-            rv_sub(pc, bj->com, aj);
-            rv_cross(wi, ai, ui);
-            rv_cross(wj, aj, uj);
-            for (int a = 0; a < 3; a++) {
-                double vi = bi->fixed ? 0.0 : bi->v[a] + ui[a];
-                double vj = bj->fixed ? 0.0 : bj->v[a] + uj[a];
-                vrel[a] = vi - vj;
-            }
-            double meff = eff_mass(body_mass_or_inf(bi), body_mass_or_inf(bj));
-            double rstar = si->radius * sj->radius / (si->radius + sj->radius);
-            double w0 = contact_apply(r, i, j, n, delta, pc, vrel, meff, rstar, x[i], x[j]);
-            if (worst != NULL && w0 > worst->omega0) {
-                worst->omega0 = w0;
-                worst->sphere_i = i;
-                worst->sphere_j = j;
-            }
+    double delta = -p->gap, meff, rstar;
+    const rigid_body_t *bi = &bodies[si->body];
+    if (p->j >= 0) {
+        const rigid_sphere_t *sj = &r->spheres[p->j];
+        if (delta > fmin(si->radius, sj->radius)) {
+            return fault(r, RIGID_FAULT_DEEP, p);
         }
-        if (bi->fixed) {
-            continue;
+        meff = eff_mass(body_mass_or_inf(bi), body_mass_or_inf(&bodies[sj->body]));
+        rstar = si->radius * sj->radius / (si->radius + sj->radius);
+    } else {
+        if (delta > si->radius) {
+            return fault(r, RIGID_FAULT_DEEP, p);
         }
-        for (int ax = 0; ax < 3; ax++) {
-            for (int side = 0; side < 2; side++) {
-                if (!cfg->walls[ax][side]) {
-                    continue;
-                }
-                double gap = side == 0 ? x[i][ax] - cfg->box_lo[ax] : cfg->box_hi[ax] - x[i][ax];
-                double delta = si->radius - gap;
-                if (!(delta > 0.0)) {
-                    continue;
-                }
-                if (delta > si->radius) {
-                    bad = 1;
-                    continue;
-                }
-                double n[3] = {0, 0, 0}, pc[3];
-                n[ax] = side == 0 ? -1.0 : 1.0;
-                for (int a = 0; a < 3; a++) {
-                    pc[a] = x[i][a] + (si->radius - delta) * n[a];
-                }
-                double wi[3], ai[3], ui[3], vrel[3];
-                rigid_body_omega(bi, wi);
-                rv_sub(pc, bi->com, ai);
-                rv_cross(wi, ai, ui);
-                for (int a = 0; a < 3; a++) {
-                    vrel[a] = bi->v[a] + ui[a];
-                }
-                double w0 = contact_apply(r, i, -1, n, delta, pc, vrel, bi->mass, si->radius, x[i], NULL);
-                if (worst != NULL && w0 > worst->omega0) {
-                    worst->omega0 = w0;
-                    worst->sphere_i = i;
-                    worst->sphere_j = -1 - 2 * ax - side;
-                }
-            }
-        }
+        meff = bi->mass;
+        rstar = si->radius;
     }
-    return bad;
+    double w0 = contact_apply(r, p->i, p->j, p->n, delta, p->pc, p->vrel, meff, rstar, c->x[p->i], p->xj);
+    if (c->worst != NULL && w0 > c->worst->omega0) {
+        c->worst->omega0 = w0;
+        c->worst->sphere_i = p->i;
+        c->worst->sphere_j = p->j;
+    }
+    return 0;
+}
+
+/* Sphere-sphere and sphere-wall contacts. Returns >0 after a fault (an
+ * overlap beyond a radius, or a wall reached without a contact model),
+ * recorded in r->fault. */
+int rigid_contacts(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], rigid_contact_info_t *worst)
+{
+    contact_ctx_t c = {x, worst};
+    return rigid_pairs_visit(r, bodies, x, 0.0, contact_pair, &c);
+}
+
+status_t rigid_fault_report(const rigid_t *r, const rigid_fault_t *f, double t)
+{
+    const rigid_config_t *cfg = &r->cfg;
+    int i = f->sphere_i, j = f->sphere_j, bi = r->spheres[i].body;
+    if (f->kind == RIGID_FAULT_NO_MODEL) {
+        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT,
+                       "body %d sphere %d reached face %s at t = %.9g s (gap %.3g m): no contact model is set "
+                       "(contacts.model: none); set contacts.model: spring_dashpot or hertz to let bodies touch walls",
+                       bi, i, rigid_face_name(-1 - j), t, f->gap);
+    }
+    const char *fix = cfg->contact_model == RIGID_CONTACT_HERTZ ? "raise contacts.young_modulus"
+                                                                : "shorten contacts.contact_time";
+    if (j < 0) {
+        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT,
+                       "body %d sphere %d overlaps face %s by %.3g m, more than its radius %g m, at t = %.9g s: "
+                       "the contact is too soft for this impact or the step too long; %s or raise rigid.substeps",
+                       bi, i, rigid_face_name(-1 - j), -f->gap, r->spheres[i].radius, t, fix);
+    }
+    return log_msg(&r->log, STATUS_ERROR, RIGID_CAT,
+                   "body %d sphere %d and body %d sphere %d overlap by %.3g m, more than the smaller radius %g m, at "
+                   "t = %.9g s: the contact is too soft for this impact or the step too long; %s or raise "
+                   "rigid.substeps",
+                   bi, i, r->spheres[j].body, j, -f->gap, fmin(r->spheres[i].radius, r->spheres[j].radius), t, fix);
 }

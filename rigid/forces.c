@@ -4,8 +4,9 @@
  * it at each sub-step, CVODE from its RHS callback), so that they integrate
  * the same equations. Per sphere i it sums into sf[i] (force) and st[i]
  * (torque about the sphere centre): the hydrodynamic load held over the step,
- * gravity and buoyancy (m_i - rho_f V_i) g acting at the share centroid, and
- * the contacts (contact.c). Per body it then forms the force and the torque
+ * gravity and buoyancy (m_i - rho_f V_i) g acting at the share centroid, the
+ * contacts (contact.c) and the lubrication correction (lubrication.c, whose
+ * damping Verlet integrates exactly over each kick: h_kick). Per body it then forms the force and the torque
  * about the centre of mass, bt = sum st_i + (x_i - com) x sf_i. Fixed bodies
  * get zero. The body array may be a scratch copy (CVODE). */
 #include "rigid_internal.h"
@@ -41,10 +42,37 @@ void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, dou
     }
 }
 
-int rigid_forces(rigid_t *r, const rigid_body_t *bodies, rigid_contact_info_t *worst)
+/* Body force and torque about the centre of mass from the sphere loads. */
+static void body_loads(rigid_t *r, const rigid_body_t *bodies)
+{
+    memset(r->bf, 0, sizeof(double) * 3 * (size_t)r->nbodies);
+    memset(r->bt, 0, sizeof(double) * 3 * (size_t)r->nbodies);
+    for (int i = 0; i < r->nspheres; i++) {
+        int bi = r->spheres[i].body;
+        if (bodies[bi].fixed) {
+            continue;
+        }
+        double d[3], t[3];
+        rv_sub(r->sx[i], bodies[bi].com, d);
+        rv_cross(d, &r->sf[3 * i], t);
+        for (int a = 0; a < 3; a++) {
+            r->bf[3 * bi + a] += r->sf[3 * i + a];
+            r->bt[3 * bi + a] += r->st[3 * i + a] + t[a];
+        }
+    }
+}
+
+double rigid_lub_kick(const rigid_t *r, double h)
+{
+    /* kick-drift-kick: each kick spans half a sub-step */
+    return r->cfg.integrator == RIGID_VERLET ? 0.5 * h / r->cfg.substeps : 0.0;
+}
+
+int rigid_forces(rigid_t *r, const rigid_body_t *bodies, double h_kick, rigid_contact_info_t *worst)
 {
     const rigid_config_t *cfg = &r->cfg;
     int ns = r->nspheres;
+    r->fault = (rigid_fault_t){RIGID_FAULT_NONE, -1, 0, 0.0};
     if (worst != NULL) {
         worst->omega0 = 0.0;
         worst->sphere_i = worst->sphere_j = -1;
@@ -68,20 +96,9 @@ int rigid_forces(rigid_t *r, const rigid_body_t *bodies, rigid_contact_info_t *w
         }
     }
     int bad = rigid_contacts(r, bodies, (const double (*)[3])r->sx, worst);
-    memset(r->bf, 0, sizeof(double) * 3 * (size_t)r->nbodies);
-    memset(r->bt, 0, sizeof(double) * 3 * (size_t)r->nbodies);
-    for (int i = 0; i < ns; i++) {
-        int bi = r->spheres[i].body;
-        if (bodies[bi].fixed) {
-            continue;
-        }
-        double d[3], t[3];
-        rv_sub(r->sx[i], bodies[bi].com, d);
-        rv_cross(d, &r->sf[3 * i], t);
-        for (int a = 0; a < 3; a++) {
-            r->bf[3 * bi + a] += r->sf[3 * i + a];
-            r->bt[3 * bi + a] += r->st[3 * i + a] + t[a];
-        }
+    body_loads(r, bodies);
+    if (rigid_lubrication(r, bodies, (const double (*)[3])r->sx, h_kick)) {
+        body_loads(r, bodies);
     }
     for (int k = 0; k < 3 * r->nbodies; k++) {
         if (!isfinite(r->bf[k]) || !isfinite(r->bt[k])) {

@@ -86,7 +86,9 @@ status_t rigid_implicit_load(rigid_t *r, double h)
     if (!any) {
         return STATUS_OK;
     }
-    if (rigid_forces(r, r->bodies, NULL) < 0) {
+    /* the lubrication damping integrated exactly over the whole step, so that
+     * a stiff film cannot throw the prediction past a reversal */
+    if (rigid_forces(r, r->bodies, h, NULL) < 0) {
         return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "non-finite force at t=%.9g s before the step", r->t);
     }
     for (int b = 0; b < r->nbodies; b++) {

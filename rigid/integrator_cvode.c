@@ -9,7 +9,10 @@
  * quaternion is not constrained; the RHS uses q/|q| and q is renormalised at
  * the end of each communication step. Fixed bodies have zero derivatives.
  * The RHS returns 0 on success, 1 (recoverable: CVODE retries with a smaller
- * step) when a contact overlap exceeds a radius, -1 (fatal) on NaN.
+ * step) on a fault of contact.c (an overlap beyond a radius, a wall reached
+ * without a contact model), -1 (fatal) on NaN. When CVODE cannot get past a
+ * fault, the fault is the error message. The lubrication force enters plain
+ * (h_kick = 0): its stiffness is BDF's business.
  *
  * Methods: Adams-Moulton with the fixed-point nonlinear solver (non-stiff),
  * or BDF with Newton and a dense direct (difference-quotient Jacobian) or
@@ -49,6 +52,8 @@ typedef struct {
     int n; /* number of bodies the solver objects are sized for, 0 = none */
     rigid_t *r;
     char last_msg[512];
+    rigid_fault_t fault; /* last fault the RHS met in this step (a recoverable failure) */
+    double fault_t;
 } cvode_data_t;
 
 static void cv_release(cvode_data_t *d)
@@ -114,17 +119,19 @@ static void pack(const rigid_t *r, double *y)
 
 static int rhs(sunrealtype t, N_Vector y, N_Vector ydot, void *user)
 {
-    (void)t;
-    rigid_t *r = user;
+    cvode_data_t *d = user;
+    rigid_t *r = d->r;
     const double *yy = N_VGetArrayPointer(y);
     double *yd = N_VGetArrayPointer(ydot);
     rigid_body_t *bs = r->scratch_bodies;
     unpack(r, yy, bs);
-    int rc = rigid_forces(r, bs, NULL);
+    int rc = rigid_forces(r, bs, 0.0, NULL);
     if (rc < 0) {
         return -1;
     }
     if (rc > 0) {
+        d->fault = r->fault;
+        d->fault_t = t;
         return 1;
     }
     for (int b = 0; b < r->nbodies; b++) {
@@ -190,7 +197,7 @@ static status_t cv_setup(rigid_t *r, cvode_data_t *d)
     if ((flag = CVodeInit(d->mem, rhs, r->t, d->y)) != CV_SUCCESS) {
         return cv_fail(r, d, "CVodeInit", flag);
     }
-    if ((flag = CVodeSetUserData(d->mem, r)) != CV_SUCCESS) {
+    if ((flag = CVodeSetUserData(d->mem, d)) != CV_SUCCESS) {
         return cv_fail(r, d, "CVodeSetUserData", flag);
     }
     if ((flag = CVodeSetMaxNumSteps(d->mem, CVODE_MAX_STEPS)) != CV_SUCCESS) {
@@ -255,9 +262,16 @@ static void cv_free(void *data)
 /* Names the body and contact that most likely caused a failure. */
 static status_t cv_report(rigid_t *r, cvode_data_t *d, int flag, double tret)
 {
+    int rhs_flag = flag == CV_RHSFUNC_FAIL || flag == CV_FIRST_RHSFUNC_ERR || flag == CV_REPTD_RHSFUNC_ERR ||
+                   flag == CV_UNREC_RHSFUNC_ERR;
+    if (rhs_flag && d->fault.kind != RIGID_FAULT_NONE) {
+        /* CVODE could not get past a state where a sphere reaches a wall
+         * without a contact model, or overlaps beyond a radius */
+        return rigid_fault_report(r, &d->fault, d->fault_t);
+    }
     rigid_contact_info_t worst;
     unpack(r, N_VGetArrayPointer(d->y), r->scratch_bodies);
-    int rc = rigid_forces(r, r->scratch_bodies, &worst);
+    int rc = rigid_forces(r, r->scratch_bodies, 0.0, &worst);
     char where[160] = "";
     if (rc < 0) {
         int bad = -1;
@@ -286,6 +300,7 @@ static status_t cv_advance(rigid_t *r, void *data, double h)
     int flag;
     status_t st;
     d->last_msg[0] = '\0';
+    d->fault.kind = RIGID_FAULT_NONE;
     if (d->n != r->nbodies || d->mem == NULL) {
         if ((st = cv_setup(r, d)) != STATUS_OK) {
             return st;

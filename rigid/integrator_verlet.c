@@ -18,7 +18,10 @@
  * Stability: with a contact of natural frequency omega0 = sqrt(k/m_eff) the
  * scheme is unstable for h omega0 > 2 (less with damping). A sub-step with
  * h omega0 > 1 is refused with STATUS_ERROR naming the contact, bodies and
- * time, instead of producing garbage; non-finite forces likewise. */
+ * time, instead of producing garbage; non-finite forces and the faults of
+ * contact.c (an overlap beyond a radius, a wall reached without a contact
+ * model) likewise. The lubrication damping needs no such limit: each kick
+ * integrates it exactly (lubrication.c, h_kick = half a sub-step). */
 #include "rigid_internal.h"
 
 #include <string.h>
@@ -67,8 +70,8 @@ static void free_rotor(rigid_body_t *b, double h)
 static status_t verlet_forces(rigid_t *r, double t)
 {
     rigid_contact_info_t worst;
-    int rc = rigid_forces(r, r->bodies, &worst);
     double hs = r->h_sub_current;
+    int rc = rigid_forces(r, r->bodies, 0.5 * hs, &worst);
     if (rc < 0) {
         for (int b = 0; b < r->nbodies; b++) {
             if (!isfinite(r->bf[3 * b] + r->bf[3 * b + 1] + r->bf[3 * b + 2] + r->bt[3 * b] + r->bt[3 * b + 1] +
@@ -85,8 +88,7 @@ static status_t verlet_forces(rigid_t *r, double t)
         if (j >= 0) {
             snprintf(other, sizeof other, "sphere %d (body %d)", j, r->spheres[j].body);
         } else {
-            int code = -1 - j;
-            snprintf(other, sizeof other, "the %s wall of axis %d", code % 2 ? "upper" : "lower", code / 2);
+            snprintf(other, sizeof other, "the wall face %s", rigid_face_name(-1 - j));
         }
         return log_msg(&r->log, STATUS_ERROR, RIGID_CAT,
                        "verlet: unstable contact between sphere %d (body %d) and %s at t=%.9g s: sub-step %g s "
@@ -96,8 +98,7 @@ static status_t verlet_forces(rigid_t *r, double t)
                        3.14159265358979 / worst.omega0);
     }
     if (rc > 0) {
-        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT,
-                       "verlet: a contact overlap exceeds a sphere radius at t=%.9g s (step %g s too long)", t, hs);
+        return rigid_fault_report(r, &r->fault, t);
     }
     return STATUS_OK;
 }

@@ -30,6 +30,7 @@ void rigid_free(rigid_t *r)
     free(r->scratch_bodies);
     free(r->sx);
     free(r->sv);
+    free(r->lub_rate);
     free(r->bt);
     free(r->bf);
     free(r->st);
@@ -79,11 +80,12 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     r->bt = calloc(3 * ns, sizeof(double));
     r->sx = calloc(ns, sizeof *r->sx);
     r->sv = calloc(ns, sizeof *r->sv);
+    r->lub_rate = calloc(ns, sizeof(double));
     int *members = malloc(ns * sizeof(int)), *ids = malloc(ns * sizeof(int));
     double (*c)[3] = malloc(ns * sizeof *c), (*s)[3] = malloc(ns * sizeof *s), (*j)[9] = malloc(ns * sizeof *j);
     double *rad = malloc(ns * sizeof(double));
     if (!r->spheres || !r->bodies || !r->scratch_bodies || !r->conn || !r->section || !r->touch || !r->sf || !r->st || !r->bf ||
-        !r->bt || !r->sx || !r->sv || !members || !ids || !c || !s || !j || !rad) {
+        !r->bt || !r->sx || !r->sv || !r->lub_rate || !members || !ids || !c || !s || !j || !rad) {
         st = log_msg(log, STATUS_ERROR, RIGID_CAT, "out of memory");
         goto cleanup;
     }
@@ -148,7 +150,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
         goto cleanup;
     }
     /* connection loads at t0 (with zero hydrodynamic load) */
-    if (rigid_forces(r, r->bodies, NULL) >= 0) {
+    if (rigid_forces(r, r->bodies, 0.0, NULL) >= 0) {
         rigid_connections_eval(r);
     }
 cleanup:
@@ -173,6 +175,16 @@ void rigid_set_sphere_load(rigid_t *r, int sphere, const double force[3], const 
     for (int a = 0; a < 3; a++) {
         s->load_f[a] = force != NULL ? force[a] : 0.0;
         s->load_t[a] = torque != NULL ? torque[a] : 0.0;
+    }
+}
+
+void rigid_get_sphere_applied_load(const rigid_t *r, int sphere, double force[3], double torque[3])
+{
+    assert(r != NULL && sphere >= 0 && sphere < r->nspheres);
+    const rigid_sphere_t *s = &r->spheres[sphere];
+    for (int a = 0; a < 3; a++) {
+        force[a] = s->load_f[a] + s->imp_f[a];
+        torque[a] = s->load_t[a] + s->imp_t[a];
     }
 }
 
@@ -236,9 +248,12 @@ status_t rigid_step(rigid_t *r, double h)
     r->have_prev = 1;
     r->h_prev = h;
     r->t += h;
-    int rc = rigid_forces(r, r->bodies, NULL);
+    int rc = rigid_forces(r, r->bodies, rigid_lub_kick(r, h), NULL);
     if (rc < 0) {
         return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "non-finite force at t=%.9g s after the step", r->t);
+    }
+    if (rc > 0) {
+        return rigid_fault_report(r, &r->fault, r->t);
     }
     rigid_connections_eval(r);
     int broke = 0, stuck = 0;

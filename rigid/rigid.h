@@ -27,6 +27,11 @@ typedef enum { RIGID_VERLET, RIGID_CVODE } rigid_integrator_t;
 typedef enum { RIGID_ADAMS, RIGID_BDF } rigid_cvode_method_t;
 typedef enum { RIGID_LS_DENSE, RIGID_LS_SPGMR } rigid_linsol_t;
 typedef enum { RIGID_CONTACT_NONE, RIGID_CONTACT_SPRING_DASHPOT, RIGID_CONTACT_HERTZ } rigid_contact_model_t;
+/* What the fluid sees at a wall face of the box: a solid no-slip wall (also
+ * a moving one, with its velocity), a free-slip wall, or an open face (inlet,
+ * outlet: bodies meet it as a wall for contacts, but there is no fluid film
+ * to squeeze, so no lubrication). */
+typedef enum { RIGID_WALL_NO_SLIP, RIGID_WALL_FREE_SLIP, RIGID_WALL_OPEN } rigid_wall_kind_t;
 
 /* A sphere: centre at t0 (m), radius (m) > 0, index of its body in cfg->bodies. */
 typedef struct {
@@ -67,8 +72,18 @@ typedef struct {
     double young_modulus;   /* Pa > 0, Hertz only */
     double poisson_ratio;   /* [0, 0.5), Hertz only */
     double stick_speed;     /* m/s >= 0: fuse when relative normal speed < this at contact; 0 = never */
-    int walls[3][2];        /* walls[axis][side]=1: face box_lo/box_hi[axis] is a solid wall */
+    int walls[3][2];        /* walls[axis][side]=1: face box_lo/box_hi[axis] is a wall for the bodies */
+    rigid_wall_kind_t wall_kind[3][2]; /* of each wall (0 = no-slip) */
+    double wall_velocity[3][2][3];     /* m/s, of a moving no-slip wall (tangential); 0 otherwise */
+    int periodic[3];        /* periodic[axis]=1: period box_hi - box_lo; sphere pairs meet at the nearest image */
     double box_lo[3], box_hi[3];
+    /* Lubrication (lubrication.c): the normal force of the thin film between
+     * two spheres or a sphere and a no-slip/free-slip wall, for surface gaps
+     * below lub_cutoff, saturated at lub_min_gap. */
+    double fluid_viscosity; /* kinematic, m^2/s >= 0; dynamic viscosity mu = fluid_density * fluid_viscosity */
+    int lubrication;        /* 1: on */
+    double lub_cutoff;      /* m > 0 */
+    double lub_min_gap;     /* m, in (0, lub_cutoff) */
     rigid_integrator_t integrator;
     rigid_cvode_method_t cvode_method;
     rigid_linsol_t linsol;
@@ -89,6 +104,15 @@ typedef struct {
 } rigid_config_t;
 
 status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out);
+
+/* Lubrication correction (lubrication.c), a pure function: the normal force
+ * (N) of the fluid film between two surfaces at gap (m) approaching at vn
+ * (m/s; > 0 approach gives a repulsive force > 0, separation an attractive
+ * one < 0), F = 6 pi mu reff^2 vn (1/max(gap, min_gap) - 1/cutoff) for
+ * gap < cutoff and 0 otherwise. mu: dynamic viscosity (Pa s); reff: r_i r_j /
+ * (r_i + r_j) for two spheres, r against a no-slip wall, r/2 against a
+ * free-slip wall. */
+double rigid_lubrication_normal(double mu, double reff, double gap, double vn, double cutoff, double min_gap);
 
 /* The configuration of a scene (rigid_scene.c): every body of the scene,
  * fixed and prescribed ones as fixed bodies; sphere i = the scene's global
@@ -117,6 +141,11 @@ status_t rigid_step(rigid_t *r, double h);
 double rigid_time(const rigid_t *r);
 
 void rigid_get_sphere(const rigid_t *r, int sphere, double pos[3], double vel[3], double omega[3]);
+/* The hydrodynamic load that acted on the sphere over the last rigid_step:
+ * the load set by rigid_set_sphere_load plus, under the implicit coupling,
+ * its drag response to the step's predicted velocity change (what the
+ * momentum balance of the step sees; without drag coefficients: the load). */
+void rigid_get_sphere_applied_load(const rigid_t *r, int sphere, double force[3], double torque[3]);
 int rigid_sphere_body(const rigid_t *r, int sphere);
 int rigid_nbodies(const rigid_t *r);
 int rigid_nfree_bodies(const rigid_t *r); /* bodies that move (not fixed) */

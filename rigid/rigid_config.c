@@ -3,7 +3,8 @@
  *
  * Counts and array pointers; finite, positive physical values; connections
  * that join two different, touching spheres of one body, each pair once;
- * contact and integrator settings; and every body one piece. The first
+ * contact, wall, lubrication and integrator settings; and every body one
+ * piece. The first
  * violation is logged (category "rigid") and returned as STATUS_ERROR.
  * Nothing is allocated here: the connectivity check works in scratch arrays
  * of the caller. */
@@ -128,10 +129,35 @@ status_t rigid_config_validate(const rigid_config_t *c, const log_t *log)
         }
     }
     for (int a = 0; a < 3; a++) {
-        if ((c->walls[a][0] || c->walls[a][1]) &&
+        if ((c->walls[a][0] || c->walls[a][1] || c->periodic[a]) &&
             !(c->box_hi[a] > c->box_lo[a] && isfinite(c->box_lo[a]) && isfinite(c->box_hi[a]))) {
-            return log_msg(log, STATUS_ERROR, RIGID_CAT, "box along axis %d: need box_lo %g < box_hi %g for walls", a,
-                           c->box_lo[a], c->box_hi[a]);
+            return log_msg(log, STATUS_ERROR, RIGID_CAT,
+                           "box along axis %d: need box_lo %g < box_hi %g for walls or a period", a, c->box_lo[a],
+                           c->box_hi[a]);
+        }
+        if (c->periodic[a] && (c->walls[a][0] || c->walls[a][1])) {
+            return log_msg(log, STATUS_ERROR, RIGID_CAT, "axis %d is periodic and has a wall; allowed: one of the two",
+                           a);
+        }
+        for (int side = 0; side < 2; side++) {
+            rigid_wall_kind_t k = c->wall_kind[a][side];
+            if (k != RIGID_WALL_NO_SLIP && k != RIGID_WALL_FREE_SLIP && k != RIGID_WALL_OPEN) {
+                return log_msg(log, STATUS_ERROR, RIGID_CAT, "wall_kind[%d][%d] = %d unknown", a, side, (int)k);
+            }
+            if (!finite3(c->wall_velocity[a][side])) {
+                return log_msg(log, STATUS_ERROR, RIGID_CAT, "wall_velocity[%d][%d] must be finite", a, side);
+            }
+        }
+    }
+    if (!(c->fluid_viscosity >= 0.0) || !isfinite(c->fluid_viscosity)) {
+        return bad(log, "fluid_viscosity %g m^2/s must be >= %g and finite", c->fluid_viscosity, 0.0);
+    }
+    if (c->lubrication) {
+        if (!(c->lub_cutoff > 0.0) || !isfinite(c->lub_cutoff)) {
+            return bad(log, "lub_cutoff %g m must be > %g and finite", c->lub_cutoff, 0.0);
+        }
+        if (!(c->lub_min_gap > 0.0 && c->lub_min_gap < c->lub_cutoff)) {
+            return bad(log, "lub_min_gap %g m must be in (0, lub_cutoff = %g m)", c->lub_min_gap, c->lub_cutoff);
         }
     }
     if (c->integrator != RIGID_VERLET && c->integrator != RIGID_CVODE) {

@@ -16,6 +16,10 @@
  *               sphere[i].drag_coefficient (kg/s), .rotational_drag_coefficient
  *               (kg.m2/s), only when rigid.coupling = implicit (start 0)
  *   outputs     sphere[i].position|velocity|angular_velocity.x|y|z,
+ *               sphere[i].applied_force|applied_torque.x|y|z (implicit
+ *               coupling only: the hydrodynamic load that acted over the last
+ *               step, the input plus its drag response to the step's velocity
+ *               change; what the master records as the sphere's load)
  *               sphere[i].body (Integer: the current body id; ids start as
  *               the scene body index and change when bodies split or merge)
  *               connection[k].force|torque.x|y|z, connection[k].intact
@@ -26,6 +30,7 @@
  * Connections created when bodies stick (beyond the scene's list) are not
  * exposed. A scene without free bodies needs no rigid FMU (variables()
  * answers STATUS_DISCARD). fmi2DoStep(h) is rigid_step(h) with any h > 0. */
+#include "../common/coupling.h"
 #include "../common/fmi_adapter.h"
 #include "rigid.h"
 
@@ -47,7 +52,9 @@ enum {
     Q_MOMENTUM,
     Q_ANGULAR_MOMENTUM,
     Q_DRAG,
-    Q_ROTATIONAL_DRAG
+    Q_ROTATIONAL_DRAG,
+    Q_APPLIED_FORCE,
+    Q_APPLIED_TORQUE
 };
 
 static const char *const AXIS = "xyz";
@@ -133,8 +140,8 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                                  "hydrodynamic torque about the centre", log))) {
                 goto done;
             }
-            if (s->rigid.coupling != COUPLING_IMPLICIT) {
-                continue;
+            if (coupling_of_body(s, b).coupling != COUPLING_IMPLICIT) {
+                continue; /* the drag pair exists for implicitly coupled bodies only (common/coupling.h) */
             }
             if (!fmi_vars_add_drag(&vs, FMI_INPUT, i, Q_DRAG, Q_ROTATIONAL_DRAG)) {
                 st = oom(log);
@@ -152,6 +159,13 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                                  log)) ||
                 (st = add_vector(&vs, FMI_OUTPUT, Q_ANGULAR_VELOCITY, "sphere", i, "angular_velocity", "rad/s",
                                  "angular velocity", log))) {
+                goto done;
+            }
+            if (coupling_of_body(s, b).coupling == COUPLING_IMPLICIT &&
+                ((st = add_vector(&vs, FMI_OUTPUT, Q_APPLIED_FORCE, "sphere", i, "applied_force", "N",
+                                  "hydrodynamic force over the last step, implicit correction included", log)) ||
+                 (st = add_vector(&vs, FMI_OUTPUT, Q_APPLIED_TORQUE, "sphere", i, "applied_torque", "N.m",
+                                  "hydrodynamic torque over the last step, implicit correction included", log)))) {
                 goto done;
             }
             fmi_var_t *v = fmi_vars_add(&vs, FMI_INTEGER, FMI_OUTPUT, NULL, "sphere[%d].body", i);
@@ -297,6 +311,9 @@ static void rigid_fmi_outputs(void *comp, const fmi_vars_t *vars, double *values
         } else if (v->what == Q_MOMENTUM || v->what == Q_ANGULAR_MOMENTUM) {
             rigid_momentum(m->r, q[0], q[1]);
             values[j] = q[v->what == Q_MOMENTUM ? 0 : 1][v->axis];
+        } else if (v->what == Q_APPLIED_FORCE || v->what == Q_APPLIED_TORQUE) {
+            rigid_get_sphere_applied_load(m->r, v->index, q[0], q[1]);
+            values[j] = q[v->what - Q_APPLIED_FORCE][v->axis];
         } else if (v->what <= Q_ANGULAR_VELOCITY) {
             rigid_get_sphere(m->r, v->index, q[0], q[1], q[2]);
             values[j] = q[v->what - Q_POSITION][v->axis];

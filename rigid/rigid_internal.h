@@ -64,6 +64,14 @@ typedef struct {
 
 struct rigid_integrator_ops;
 
+/* A fault found by a force evaluation (contact.c): the first one is kept. */
+typedef enum { RIGID_FAULT_NONE, RIGID_FAULT_NO_MODEL, RIGID_FAULT_DEEP } rigid_fault_kind_t;
+typedef struct {
+    rigid_fault_kind_t kind; /* NO_MODEL: a wall reached without a contact model; DEEP: overlap beyond a radius */
+    int sphere_i, sphere_j;  /* j < 0: the wall face -1 - j (2*axis + side) */
+    double gap;              /* surface gap, m (< 0: overlap) */
+} rigid_fault_t;
+
 struct rigid {
     rigid_config_t cfg; /* copy; the array pointers of cfg are NOT kept (set to NULL) */
     log_t log;
@@ -83,6 +91,8 @@ struct rigid {
     double *sf, *st;        /* per sphere external force and torque about its centre */
     double *bf, *bt;        /* per body force and torque about com */
     double (*sx)[3], (*sv)[3]; /* per sphere centre and velocity (last force evaluation) */
+    double *lub_rate;       /* per body: sum of its lubrication damping rates (lubrication.c) */
+    rigid_fault_t fault;    /* of the last force evaluation */
     rigid_body_t *scratch_bodies;
     const struct rigid_integrator_ops *ops;
     void *integ;            /* integrator private data */
@@ -185,17 +195,47 @@ void rigid_sym_eigen(const double a[9], double eval[3], double evec[9]);
 
 /* ---- forces.c: all external forces on spheres and bodies ---- */
 typedef struct {
-    int sphere_i, sphere_j; /* j < 0: wall (-1 - 2*axis - side) */
+    int sphere_i, sphere_j; /* j < 0: wall face -1 - j (2*axis + side) */
     double omega0;          /* sqrt(k/m_eff) of the contact, for the Verlet stability check */
 } rigid_contact_info_t;
 /* Evaluates sphere forces (r->sf, r->st) and body forces (r->bf, r->bt) for
- * the body states in bodies (which may be a scratch copy). Returns 0, or >0
- * for a recoverable problem (overlap beyond a radius), <0 for NaN. If worst
- * is not NULL it receives the contact with the largest omega0. */
-int rigid_forces(rigid_t *r, const rigid_body_t *bodies, rigid_contact_info_t *worst);
+ * the body states in bodies (which may be a scratch copy). h_kick > 0: the
+ * lubrication damping is integrated exactly over a kick of that length
+ * (Verlet), 0: the plain force (CVODE). Returns 0, or >0 for a fault
+ * (r->fault: overlap beyond a radius, a wall reached without a contact
+ * model), <0 for NaN. If worst is not NULL it receives the contact with the
+ * largest omega0. */
+int rigid_forces(rigid_t *r, const rigid_body_t *bodies, double h_kick, rigid_contact_info_t *worst);
+/* The h_kick of the integrator for a communication step of length h. */
+double rigid_lub_kick(const rigid_t *r, double h);
 void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, double x[3], double v[3], double w[3]);
 /* contact.c: adds contact forces to r->sf/st; x: sphere centres */
 int rigid_contacts(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], rigid_contact_info_t *worst);
+/* The error message of a fault found at time t (names body, sphere, partner or face, gap). */
+status_t rigid_fault_report(const rigid_t *r, const rigid_fault_t *f, double t);
+/* lubrication.c: adds the lubrication forces to r->sf/st (see rigid_forces
+ * for h_kick; r->bf/bt must hold the body loads without them). Returns 1 if
+ * any film acts (the body loads are then to be summed again). */
+int rigid_lubrication(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], double h_kick);
+
+/* ---- pairs.c: the close pairs of contacts and lubrication ---- */
+typedef struct {
+    int i, j;       /* sphere i and its partner: sphere j >= 0 of another body, or the wall j = -1 - face */
+    int face;       /* wall: 2*axis + side (x_min, x_max, ..., z_max); -1 for two spheres */
+    double n[3];    /* unit normal from i towards the partner (0 for coincident centres) */
+    double gap;     /* surface gap, m, < 0 in overlap; spheres: centre distance - rigid_contact_reference */
+    double pc[3];   /* contact point: midway between the surfaces (spheres), on the face (wall) */
+    double xj[3];   /* centre of the image of j nearest to i (spheres) */
+    double ai[3], aj[3]; /* pc - centre of mass of i's body, of j's body (its image) */
+    double vrel[3]; /* velocity of i's material at pc relative to the partner's (a moving wall's) */
+} rigid_pair_t;
+typedef int (*rigid_pair_fn)(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t *p, void *ctx);
+/* Calls fn for every pair with gap <= reach: spheres of different bodies,
+ * not both fixed, at the nearest periodic image; spheres of free bodies
+ * against every wall face. Returns the OR of fn's results. */
+int rigid_pairs_visit(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], double reach, rigid_pair_fn fn,
+                      void *ctx);
+const char *rigid_face_name(int face); /* "x_min" ... "z_max" */
 
 /* ---- integrators ---- */
 typedef struct rigid_integrator_ops {

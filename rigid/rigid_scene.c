@@ -6,6 +6,9 @@
  * prescribed bodies enter as fixed bodies (obstacles for contacts; prescribed
  * motion belongs to the fluid). Sphere i is the scene's global sphere index
  * (bodies in order, their spheres in order), its body the scene body index.
+ * Every non-periodic face is a wall for contacts (with its kind and, for a
+ * moving wall, its velocity); periodic axes pair spheres at the nearest
+ * image; the lubrication cut-off is converted from cells to metres.
  * The arrays are owned by the caller through rigid_scene_config_free. */
 #include "rigid.h"
 
@@ -13,9 +16,19 @@
 
 #include <stdlib.h>
 
-static int is_wall(face_type_t t)
+/* Every face that is not periodic is a wall for the bodies (a body must never
+ * leave the domain); what the fluid sees there decides the lubrication. */
+static rigid_wall_kind_t wall_kind(face_type_t t)
 {
-    return t == FACE_NO_SLIP || t == FACE_FREE_SLIP || t == FACE_MOVING_WALL;
+    switch (t) {
+    case FACE_NO_SLIP:
+    case FACE_MOVING_WALL:
+        return RIGID_WALL_NO_SLIP;
+    case FACE_FREE_SLIP:
+        return RIGID_WALL_FREE_SLIP;
+    default:
+        return RIGID_WALL_OPEN; /* inlet, outlet: no film to squeeze */
+    }
 }
 
 status_t rigid_config_from_scene(const scene_t *s, double t0, const log_t *log, rigid_config_t *cfg)
@@ -59,6 +72,10 @@ status_t rigid_config_from_scene(const scene_t *s, double t0, const log_t *log, 
         .bodies = bd,
         .connections = cn,
         .fluid_density = s->fluid.density,
+        .fluid_viscosity = s->fluid.viscosity,
+        .lubrication = s->contacts.lubrication.enabled,
+        .lub_cutoff = s->contacts.lubrication.cutoff * s->fluid.dx,
+        .lub_min_gap = s->contacts.lubrication.min_gap,
         .contact_model = s->contacts.model == CONTACT_HERTZ            ? RIGID_CONTACT_HERTZ
                          : s->contacts.model == CONTACT_SPRING_DASHPOT ? RIGID_CONTACT_SPRING_DASHPOT
                                                                        : RIGID_CONTACT_NONE,
@@ -78,8 +95,15 @@ status_t rigid_config_from_scene(const scene_t *s, double t0, const log_t *log, 
     };
     for (int a = 0; a < 3; a++) {
         cfg->gravity[a] = s->rigid.gravity[a];
-        cfg->walls[a][0] = is_wall(s->domain.faces[2 * a].type);
-        cfg->walls[a][1] = is_wall(s->domain.faces[2 * a + 1].type);
+        for (int side = 0; side < 2; side++) {
+            const face_t *f = &s->domain.faces[2 * a + side];
+            cfg->walls[a][side] = f->type != FACE_PERIODIC;
+            cfg->wall_kind[a][side] = wall_kind(f->type);
+            for (int k = 0; k < 3; k++) {
+                cfg->wall_velocity[a][side][k] = f->type == FACE_MOVING_WALL ? f->velocity[k] : 0.0;
+            }
+        }
+        cfg->periodic[a] = !cfg->walls[a][0] && !cfg->walls[a][1];
         cfg->box_lo[a] = 0.0;
         cfg->box_hi[a] = s->domain.size[a];
     }

@@ -257,7 +257,8 @@ static void test_defaults(void)
     CU_ASSERT_EQUAL(s->fluid.boundary_scheme, BOUNDARY_CLI);
     CU_ASSERT_EQUAL(s->fluid.refill, REFILL_EXTRAPOLATION);
     CU_ASSERT_EQUAL(s->fluid.force_method, FORCE_GALILEAN);
-    CU_ASSERT_EQUAL(s->fluid.force_averaging, 0);
+    CU_ASSERT_EQUAL(s->fluid.force_averaging, -1); /* not given: per body (common/coupling.h) */
+    CU_ASSERT_EQUAL(s->rigid.coupling, COUPLING_AUTO);
     for (int a = 0; a < 3; a++) {
         CU_ASSERT_DOUBLE_EQUAL(s->fluid.body_force[a], 0, 0);
         CU_ASSERT_DOUBLE_EQUAL(s->fluid.initial_velocity[a], 0, 0);
@@ -267,9 +268,12 @@ static void test_defaults(void)
     CU_ASSERT_PTR_NULL(s->bodies);
     CU_ASSERT_EQUAL(s->nconnections, 0);
     CU_ASSERT_PTR_NULL(s->connections);
-    CU_ASSERT_EQUAL(s->contacts.model, CONTACT_NONE);
+    CU_ASSERT_EQUAL(s->contacts.model, CONTACT_SPRING_DASHPOT);
     CU_ASSERT_DOUBLE_EQUAL(s->contacts.restitution, 0.9, 0);
-    CU_ASSERT_DOUBLE_EQUAL(s->contacts.contact_time, 1e-4, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.contact_time, 10 * s->fluid.dt, 0); /* ten fluid steps */
+    CU_ASSERT_EQUAL(s->contacts.lubrication.enabled, 1);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.lubrication.cutoff, 0.67, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.lubrication.min_gap, 0, 0); /* no spheres */
     CU_ASSERT_DOUBLE_EQUAL(s->contacts.friction, 0, 0);
     CU_ASSERT_DOUBLE_EQUAL(s->contacts.young_modulus, 1e9, 0);
     CU_ASSERT_DOUBLE_EQUAL(s->contacts.poisson_ratio, 0.3, 0);
@@ -292,6 +296,7 @@ static void test_defaults(void)
     CU_ASSERT_PTR_NOT_NULL_FATAL(s);
     CU_ASSERT_PTR_NULL(s->bodies[0].name);
     CU_ASSERT_EQUAL(s->bodies[0].motion, MOTION_FREE);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.lubrication.min_gap, 2e-7, 1e-20); /* 1e-3 of the smallest radius */
     for (int a = 0; a < 3; a++) {
         CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].velocity[a], 0, 0);
         CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].angular_velocity[a], 0, 0);
@@ -692,6 +697,41 @@ static void test_repeatable(void)
     scene_free(NULL);
 }
 
+/* contacts.lubrication (models/README.md): the mapping and its defaults, off
+ * with contacts.model: none unless enabled, and the ranges of cutoff (cells)
+ * and min_gap (m, below cutoff x fluid.dx). */
+static void test_lubrication_keys(void)
+{
+    capture_t cap;
+    scene_t *s = NULL;
+    const char *const on[] = {"contacts.lubrication={cutoff: 1.5, min_gap: 1.0e-6}"};
+    CU_ASSERT_EQUAL(load(BASE, on, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(s);
+    CU_ASSERT_EQUAL(s->contacts.lubrication.enabled, 1);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.lubrication.cutoff, 1.5, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.lubrication.min_gap, 1.0e-6, 0);
+    scene_free(s);
+    const char *const none[] = {"contacts.model=none"};
+    CU_ASSERT_EQUAL(load(BASE, none, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(s);
+    CU_ASSERT_EQUAL(s->contacts.lubrication.enabled, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.lubrication.min_gap, 1.0e-7, 1e-20); /* 1e-3 of radius 1e-4 */
+    scene_free(s);
+    const char *const forced[] = {"contacts.model=none", "contacts.lubrication.enabled=true"};
+    CU_ASSERT_EQUAL(load(BASE, forced, 2, &cap, &s), STATUS_OK);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(s);
+    CU_ASSERT_EQUAL(s->contacts.lubrication.enabled, 1);
+    scene_free(s);
+    EXPECT_SET_ERROR("contacts.lubrication.cutoff=0", "contacts.lubrication.cutoff = 0: out of range; allowed: (0, 10]");
+    EXPECT_SET_ERROR("contacts.lubrication.cutoff=10.5", "contacts.lubrication.cutoff = 10.5: out of range");
+    EXPECT_SET_ERROR("contacts.lubrication.min_gap=0", "contacts.lubrication.min_gap = 0: out of range; allowed: (0, inf)");
+    /* dx = 2.5e-5 m: the default cut-off 0.67 cells is 1.675e-5 m */
+    EXPECT_SET_ERROR("contacts.lubrication.min_gap=2e-5",
+                     "contacts.lubrication.min_gap = 2e-05 m is not below the cut-off contacts.lubrication.cutoff x "
+                     "fluid.dx = 0.67 x 2.5e-05 m = 1.675e-05 m");
+    EXPECT_SET_ERROR("contacts.lubrication.width=1", "contacts.lubrication.width");
+}
+
 void scene_register_tests(void)
 {
     static const struct {
@@ -704,6 +744,7 @@ void scene_register_tests(void)
         {"overrides", test_overrides},
         {"warnings", test_warnings},
         {"repeatable", test_repeatable},
+        {"contacts.lubrication", test_lubrication_keys},
     },
       bad[] = {
           {"missing file", test_missing_file},

@@ -17,6 +17,7 @@
 #include "sphere_harness.h"
 #include "test_util.h"
 
+#include "../../common/coupling.h"
 #include "../../fluid/fluid_internal.h"
 #include "../../fluid/lattice.h"
 
@@ -434,6 +435,38 @@ static void test_drag_coefficients(void)
     }
 }
 
+/* The geometric estimate of zeta that rigid.coupling: auto decides with
+ * (common/coupling.c: 4 pi a^2 rho (1 + 2 sqrt 2)/3, bounce-back links)
+ * against the coefficient the fluid measures on its links (CLI, default
+ * scheme), at several radii and places in the cell: the choice rests on
+ * kappa = h zeta / m, so the estimate must hold to the margin of the
+ * threshold (a factor 10); it holds within 15 %. A wrong link count (e.g.
+ * the projected area pi a^2 instead of 2 pi a^2 |c_q|) fails. */
+static void test_coupling_drag_estimate(void)
+{
+    const double radii[] = {3.0, 4.3, 6.0}, offs[] = {0.0, 0.37};
+    for (int k = 0; k < 3; k++) {
+        for (int o = 0; o < 2; o++) {
+            const int n = 2 * (int)ceil(radii[k]) + 8;
+            scene_t s = test_box(n, n, n, 0.8, COLLISION_TRT);
+            const double c[3] = {n / 2.0 + offs[o], n / 2.0 - 0.5 * offs[o], n / 2.0};
+            harness_one_sphere(&s, c, radii[k], MOTION_FREE);
+            fluid_t *fl = test_fluid(&s);
+            CU_ASSERT_FATAL(fl != NULL);
+            test_run(fl, 1);
+            double zt, zr;
+            fluid_sphere_drag(fl, 0, &zt, &zr);
+            const units_t *u = fluid_units(fl);
+            const double measured = zt * u->dt / (s.fluid.density * u->dx * u->dx * u->dx);
+            const double estimate = coupling_drag_estimate(radii[k]);
+            printf("\n    a = %.2g cells, offset %.2g: zeta measured %.5g, estimate %.5g (ratio %.3f)", radii[k],
+                   offs[o], measured, estimate, estimate / measured);
+            CU_ASSERT(fabs(estimate / measured - 1.0) < 0.15);
+            fluid_free(fl);
+        }
+    }
+}
+
 /* ---- bad input: a sphere that moves too far in one step ----------------- */
 
 static void test_sphere_speed_limits(void)
@@ -479,6 +512,7 @@ void spheres_register_tests(int validate)
     CU_add_test(s, "state save/restore: bit-identical continuation", test_state_restore_bit_identical);
     CU_add_test(s, "a sphere moving more than half a cell / a cell per step", test_sphere_speed_limits);
     CU_add_test(s, "drag coefficients = the load's one-step response to v and w", test_drag_coefficients);
+    CU_add_test(s, "coupling: geometric drag estimate = measured coefficient", test_coupling_drag_estimate);
     if (validate) {
         CU_pSuite v = CU_add_suite("spheres-validate", NULL, NULL);
         CU_add_test(v, "periodic array r=8: Sangani-Acrivos within 0.2% at tau 0.6, 1.5", test_periodic_array_r8_taus);

@@ -50,6 +50,7 @@ def _run(tmp_path, scene, *args, timeout=None):
         p = subprocess.run([str(COUPLER), "run", str(MODELS / f"{scene}.yaml"), "-o", str(out), "--quiet",
                             *map(str, args)], capture_output=True, text=True, env=env, timeout=timeout)
     assert p.returncode == 0, p.stderr[-3000:]
+    assert "period-2" not in p.stderr, p.stderr[-3000:]   # issue 10: no period-2 warning with the defaults
     return out
 
 

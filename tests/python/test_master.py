@@ -434,36 +434,45 @@ def test_settling_stays_steady_for_6000_steps(coupler, tmp_path):
 
 
 def test_period_two_oscillation_detected_and_remedied(coupler, tmp_path):
-    """A light small sphere (radius 3 cells, density ratio 0.5) rising in a
-    periodic box: with explicit coupling its force flips sign every step (the
-    boundary force reacts at once to the velocity); the fluid FMU must say so,
-    naming the sphere, the step and the remedies. With fluid.force_averaging
-    the same run is smooth and silent, and a heavier, larger sphere (radius 5,
-    ratio 2, the settling test) raises no false alarm despite its start-up
-    transient."""
-    def force_run(a, rho_p, extra=""):
-        s, _ = settling_scene(tmp_path, "verlet", 0.01, L=16, a=a, rho_p=rho_p, extra=extra)
-        out = tmp_path / f"p2_{a}_{rho_p:g}_{len(extra)}.h5"
+    """A light small sphere (radius 3 cells, density ratio 0.3) rising in a
+    periodic box: with explicit coupling its force flips sign every step with a
+    growing amplitude (the boundary force reacts at once to the velocity) and
+    within about 25 steps it moves more than a cell per step: the fluid FMU
+    must say why before the run fails, naming the sphere, the step and the
+    remedies. With the defaults (rigid.coupling: auto, which picks the implicit
+    coupling with force averaging for this body) the same run is smooth and
+    silent. A sphere of ratio 0.5, whose explicit oscillation decays, and a
+    heavier, larger sphere (radius 5, ratio 2, the settling test) raise no
+    false alarm despite their start-up transients."""
+    def force_run(a, rho_p, rigid_extra=""):
+        s, _ = settling_scene(tmp_path, "verlet", 0.01, L=16, a=a, rho_p=rho_p, rigid_extra=rigid_extra)
+        out = tmp_path / f"p2_{a}_{rho_p:g}_{len(rigid_extra)}.h5"
         p = run("run", s, "-o", out, "--quiet", "--steps", "300", "--set", "run.output_interval=1e-9")
-        assert p.returncode == 0, p.stderr
         with h5py.File(out, "r") as f:
             F = f["/spheres/force"][1:, 0, :]
         late = F[150:]
         d2 = late[2:] - 2 * late[1:-1] + late[:-2]
-        alt = 0.25 * np.linalg.norm(d2, axis=1).mean() / np.linalg.norm(late.mean(axis=0))
-        return p.stderr, alt
+        alt = 0.25 * np.linalg.norm(d2, axis=1).mean() / np.linalg.norm(late.mean(axis=0)) if len(late) > 2 else np.inf
+        return p, alt
 
-    err, alt = force_run(3, 500.0)
-    warnings = [l for l in err.splitlines() if "alternated every step" in l]
-    assert len(warnings) == 1, err  # once per sphere
-    w = warnings[0]
-    assert "sphere 0 (radius 3 cells, density ratio 0.5)" in w and "step " in w and "fluid.force_averaging" in w
-    assert alt > 0.02  # the oscillation is real: its period-2 amplitude is above 2% of the mean force
-    err, alt_avg = force_run(3, 500.0, ", force_averaging: true")
-    assert "alternated every step" not in err
-    assert alt_avg < 0.01 * alt
-    err, alt5 = force_run(5, 2000.0)
-    assert "alternated every step" not in err and alt5 < 0.02
+    p, _ = force_run(3, 300.0, ", coupling: explicit")
+    assert p.returncode != 0  # the oscillation grows until the sphere outruns the lattice
+    lines = p.stderr.splitlines()
+    warnings = [i for i, l in enumerate(lines) if "alternated every step" in l]
+    assert len(warnings) == 1, p.stderr  # once per sphere
+    w = lines[warnings[0]]
+    assert "sphere 0 (radius 3 cells, density ratio 0.3)" in w and "step " in w and "growing" in w
+    assert "rigid.coupling: auto" in w and "fluid.force_averaging" in w
+    failure = [i for i, l in enumerate(lines) if "cells in one step" in l and "limit 1 cell" in l]
+    assert failure and warnings[0] < failure[0], p.stderr  # the cause is named before the failure
+    p, alt_avg = force_run(3, 300.0)
+    assert p.returncode == 0 and "alternated every step" not in p.stderr, p.stderr
+    assert alt_avg < 1e-3
+    p, alt_half = force_run(3, 500.0, ", coupling: explicit")
+    assert p.returncode == 0 and "alternated every step" not in p.stderr, p.stderr
+    assert alt_half < 0.1  # a decaying start-up oscillation
+    p, alt5 = force_run(5, 2000.0, ", coupling: explicit")
+    assert p.returncode == 0 and "alternated every step" not in p.stderr and alt5 < 0.02
 
 
 def test_implicit_coupling_light_particle(coupler, tmp_path):
@@ -502,6 +511,22 @@ def test_implicit_coupling_light_particle(coupler, tmp_path):
     assert run("export", s, "-d", exp2, "--set", "rigid.coupling=explicit").returncode == 0
     names = {v.name for v in fmpy.read_model_description(str(exp2 / "fluid.fmu")).modelVariables}
     assert not any("drag_coefficient" in n for n in names)
+    # rigid.coupling: auto (the default) decides per body by kappa = h zeta / m (common/coupling.c):
+    # this light sphere (kappa ~ 2) is coupled implicitly, the same sphere 1000 times heavier
+    # (kappa ~ 0.002) explicitly; `coupler check` says which and why
+    for density, implicit in ((300.0, True), (3.0e5, False)):
+        exp3 = tmp_path / f"exp_auto_{density:g}"
+        sets = ["--set", "rigid.coupling=auto", "--set", f"bodies.0.density={density}"]
+        assert run("export", s, "-d", exp3, *sets).returncode == 0
+        for fmu in ("fluid.fmu", "rigid.fmu"):
+            names = {v.name for v in fmpy.read_model_description(str(exp3 / fmu)).modelVariables}
+            assert ("sphere[0].drag_coefficient" in names) == implicit, (fmu, density)
+        chk = run("check", s, *sets)
+        assert chk.returncode == 0
+        line = [l for l in chk.stdout.splitlines() if "kappa" in l][0]
+        assert ("implicit + force averaging" in line) == implicit and "auto: kappa" in line, line
+    chk = run("check", s, "--set", "rigid.coupling=explicit")
+    assert "risks the period-2" in chk.stderr  # explicit chosen by hand for a light body: a warning
 
 
 @pytest.mark.validate

@@ -7,6 +7,8 @@ void test_connection_register(void);
 void test_contact_register(void);
 void test_topology_register(void);
 void test_input_register(void);
+void test_lubrication_register(void);
+void test_walls_register(void);
 
 void rigid_register_tests(void)
 {
@@ -16,4 +18,6 @@ void rigid_register_tests(void)
     test_contact_register();
     test_topology_register();
     test_input_register();
+    test_lubrication_register();
+    test_walls_register();
 }

@@ -1,0 +1,140 @@
+/* pairs.c — the close pairs that contacts (contact.c) and lubrication
+ * (lubrication.c) act on: two spheres of different bodies, and a sphere
+ * against a wall face of the box.
+ *
+ * One place computes the geometry both force laws need, so that they see the
+ * same partner, normal and relative velocity:
+ *  - two spheres meet at the image of j nearest to i along periodic axes
+ *    (minimum image, shift a whole number of periods box_hi - box_lo), and the
+ *    contact point, the lever arms and j's velocity there use that image. The
+ *    gap is the centre distance minus rigid_contact_reference (the sum of the
+ *    radii, or the contact-free distance of a broken sintered neck). Pairs of
+ *    one body and pairs of two fixed bodies are never visited. Only the
+ *    nearest image counts: a periodic length of at least twice the reach of a
+ *    pair (r_i + r_j + cut-off) is assumed.
+ *  - a sphere of a free body against each wall face (every non-periodic face:
+ *    no-slip, free-slip, moving, inlet, outlet); the gap is the distance of
+ *    the sphere surface from the face, the contact point lies on the face and
+ *    the relative velocity is taken against the wall's own velocity (moving
+ *    walls).
+ * The visitor is O(N^2) in the spheres, like the rest of the contact code. */
+#include "rigid_internal.h"
+
+static const char *const FACE_NAMES[6] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
+
+const char *rigid_face_name(int face)
+{
+    return face >= 0 && face < 6 ? FACE_NAMES[face] : "?";
+}
+
+/* Velocity of the material of body b at arm a from its centre of mass. */
+static void point_velocity(const rigid_body_t *b, const double a[3], double v[3])
+{
+    if (b->fixed) {
+        v[0] = v[1] = v[2] = 0.0;
+        return;
+    }
+    double w[3], u[3];
+    rigid_body_omega(b, w);
+    rv_cross(w, a, u);
+    for (int k = 0; k < 3; k++) {
+        v[k] = b->v[k] + u[k];
+    }
+}
+
+static int visit_spheres(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], int i, int j, double reach,
+                         rigid_pair_fn fn, void *ctx)
+{
+    const rigid_config_t *cfg = &r->cfg;
+    const rigid_sphere_t *si = &r->spheres[i], *sj = &r->spheres[j];
+    rigid_pair_t p = {.i = i, .j = j, .face = -1};
+    double dv[3], shift[3];
+    rv_sub(x[j], x[i], dv);
+    for (int a = 0; a < 3; a++) {
+        shift[a] = 0.0;
+        if (cfg->periodic[a]) {
+            double len = cfg->box_hi[a] - cfg->box_lo[a];
+            shift[a] = -len * round(dv[a] / len);
+            dv[a] += shift[a];
+        }
+    }
+    double rsum = si->radius + sj->radius, lim = rsum + reach;
+    if (!(rv_dot(dv, dv) <= lim * lim)) {
+        return 0;
+    }
+    double d = rv_norm(dv);
+    p.gap = d - rigid_contact_reference(r, i, j);
+    if (!(p.gap <= reach)) {
+        return 0;
+    }
+    if (d == 0.0) {
+        p.gap = -rsum; /* coincident centres: no normal; a full overlap */
+    } else {
+        for (int a = 0; a < 3; a++) {
+            p.n[a] = dv[a] / d;
+        }
+    }
+    const rigid_body_t *bi = &bodies[si->body], *bj = &bodies[sj->body];
+    double ui[3], uj[3];
+    for (int a = 0; a < 3; a++) {
+        p.xj[a] = x[j][a] + shift[a];
+        p.pc[a] = x[i][a] + (si->radius + 0.5 * p.gap) * p.n[a];
+        p.ai[a] = p.pc[a] - bi->com[a];
+        p.aj[a] = p.pc[a] - (bj->com[a] + shift[a]);
+    }
+    point_velocity(bi, p.ai, ui);
+    point_velocity(bj, p.aj, uj);
+    rv_sub(ui, uj, p.vrel);
+    return fn(r, bodies, &p, ctx);
+}
+
+static int visit_walls(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], int i, double reach,
+                       rigid_pair_fn fn, void *ctx)
+{
+    const rigid_config_t *cfg = &r->cfg;
+    const rigid_sphere_t *si = &r->spheres[i];
+    const rigid_body_t *bi = &bodies[si->body];
+    int bad = 0;
+    for (int face = 0; face < 6; face++) {
+        int ax = face / 2, side = face % 2;
+        if (!cfg->walls[ax][side]) {
+            continue;
+        }
+        double centre_gap = side == 0 ? x[i][ax] - cfg->box_lo[ax] : cfg->box_hi[ax] - x[i][ax];
+        rigid_pair_t p = {.i = i, .j = -1 - face, .face = face, .gap = centre_gap - si->radius};
+        if (!(p.gap <= reach)) {
+            continue;
+        }
+        p.n[ax] = side == 0 ? -1.0 : 1.0;
+        double ui[3];
+        for (int a = 0; a < 3; a++) {
+            p.pc[a] = x[i][a] + (si->radius + p.gap) * p.n[a];
+            p.ai[a] = p.pc[a] - bi->com[a];
+        }
+        point_velocity(bi, p.ai, ui);
+        rv_sub(ui, cfg->wall_velocity[ax][side], p.vrel);
+        bad |= fn(r, bodies, &p, ctx);
+    }
+    return bad;
+}
+
+int rigid_pairs_visit(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], double reach, rigid_pair_fn fn,
+                      void *ctx)
+{
+    int bad = 0;
+    for (int i = 0; i < r->nspheres; i++) {
+        const rigid_sphere_t *si = &r->spheres[i];
+        const rigid_body_t *bi = &bodies[si->body];
+        for (int j = i + 1; j < r->nspheres; j++) {
+            const rigid_sphere_t *sj = &r->spheres[j];
+            if (sj->body == si->body || (bi->fixed && bodies[sj->body].fixed)) {
+                continue;
+            }
+            bad |= visit_spheres(r, bodies, x, i, j, reach, fn, ctx);
+        }
+        if (!bi->fixed) {
+            bad |= visit_walls(r, bodies, x, i, reach, fn, ctx);
+        }
+    }
+    return bad;
+}
