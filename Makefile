@@ -25,7 +25,8 @@ RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c 
 COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/fmu.c coupler/output.c coupler/export.c \
                common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c \
-               tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/test_spheres.c tests/common/test_scene.c \
+               tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/test_spheres.c tests/fluid/approach_harness.c \
+               tests/fluid/test_wall_approach.c tests/common/test_scene.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
                tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
                tests/rigid/test_input.c tests/rigid/test_lubrication.c tests/rigid/test_walls.c
@@ -73,13 +74,16 @@ bench: deps
 $(BUILD)/rigid_report: $(LIB_OBJ) $(call obj,tests/rigid/rigid_report.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BUILD)/sphere_report: $(LIB_OBJ) $(call obj,tests/fluid/sphere_report.c tests/fluid/sphere_harness.c tests/fluid/test_util.c)
+$(BUILD)/sphere_report: $(LIB_OBJ) $(call obj,tests/fluid/sphere_report.c tests/fluid/sphere_harness.c \
+                         tests/fluid/approach_harness.c tests/fluid/test_util.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
 
 report: deps
 	@$(MAKE) --no-print-directory all $(BUILD)/rigid_report $(BUILD)/sphere_report
 	$(BUILD)/rigid_report
+	mkdir -p $(BUILD)/report
 	$(BUILD)/sphere_report
+	$(PY) tools/plot_approach.py $(BUILD)/report
 
 # FMUs: the same sources built again with hidden visibility, so that a
 # shared library exports the fmi2* entry points only; common/fmi_adapter.c

@@ -9,7 +9,11 @@ about the requested lattice velocity (Stokes drag times the Sangani-Acrivos
 array factor for D/L = 1/4 and the Schiller-Naumann Reynolds correction).
 Verdict: "stable" (the run ends, no period-2 warning), "oscillates" (the
 fluid's period-2 watch warned), or "fails" (the run stopped; the cause from the
-message). Usage:
+message). A case that is not stable is run again as a control: the same sphere
+held fixed in the same relative flow (the fluid starting at the sphere's
+speed, the body force holding it against the drag). When the control fails
+too, the limit is the fluid's (the lattice at that tau and speed), not the
+coupling's: the detail says "fluid limit". Usage:
 
     tools/stability_sweep.py [--quick] [--csv OUT.csv] [--set KEY=VALUE]... [--label NAME]
 
@@ -67,7 +71,52 @@ def case_scene(a_cells, ratio, tau, u_lat, steps):
                         t_end=steps * dt, t_out=steps * dt / 20)
 
 
+def control_scene(a_cells, ratio, tau, u_lat, steps):
+    """The control of a case: the sphere fixed, the fluid moving past it at the case's speed
+    (initial velocity u, a body force equal to the drag per fluid volume keeps it going)."""
+    text = case_scene(a_cells, ratio, tau, u_lat, steps)
+    dx, nu = 1.0e-3, 1.0e-6
+    dt = (tau - 0.5) * dx * dx / (3.0 * nu)
+    n = 8 * a_cells
+    L, a, u = n * dx, a_cells * dx, u_lat * dx / dt
+    rey = 2.0 * a * u / nu
+    drag = 6.0 * math.pi * 1.0e-3 * a * u * 1.5 * (1.0 + 0.15 * rey ** 0.687)
+    fb = drag / (L ** 3 - 4.0 / 3.0 * math.pi * a ** 3)
+    text = re.sub(r"body_force: \[0, 0, [^\]]*\]", f"body_force: [0, 0, {fb!r}]\n  initial_velocity: [0, 0, {u!r}]",
+                  text)
+    text = text.replace("  - density:", "  - motion: fixed\n    density:")
+    return re.sub(r"gravity: \[0, 0, [^\]]*\]", "gravity: [0, 0, 0]", text)
+
+
+def one_run(text, sets, coupler):
+    """(returncode, stderr) of one run of the scene text."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "case.yaml")
+        with open(path, "w") as f:
+            f.write(text)
+        cmd = [coupler, "run", path, "-o", os.path.join(tmp, "out.h5"), "--quiet"]
+        for s in sets:
+            cmd += ["--set", s]
+        env = dict(os.environ, OMP_NUM_THREADS="1")
+        p = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    return p.returncode, p.stderr
+
+
 def run_case(args):
+    verdict, why = run_free(args)
+    if verdict != "stable":
+        a, ratio, tau, u, steps, sets, coupler = args
+        rc, err = one_run(control_scene(a, ratio, tau, u, steps), sets, coupler)
+        if rc != 0:
+            errors = [l for l in err.splitlines() if l.startswith("error:")]
+            why += "; fluid limit: the fixed sphere in the same flow fails too (%s)" % (
+                errors[0][:160] if errors else "exit %d" % rc)
+        else:
+            why += "; control: the fixed sphere in the same flow runs"
+    return verdict, why
+
+
+def run_free(args):
     a, ratio, tau, u, steps, sets, coupler = args
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "case.yaml")

@@ -13,10 +13,15 @@
  *               of fluid + booked impulse;
  *   seconds     wall time of each run;
  * and the cost of a step with a particle relative to a pure fluid step on
- * the same grid. Output: plain columns, one line per combination. */
+ * the same grid; `sphere_report approach [DIR]` (also in "all") runs the
+ * close approaches of the validation (a sphere to a wall, two spheres at two
+ * placements, radius 8) and writes their per-step curves as CSV into DIR
+ * (default build/report) for tools/plot_approach.py. Output: plain columns,
+ * one line per combination. */
 #include "../../common/scene.h"
 #include "../../fluid/fluid.h"
 
+#include "approach_harness.h"
 #include "sphere_harness.h"
 #include "test_util.h"
 
@@ -57,6 +62,40 @@ static double step_cost(int with_sphere)
 
 /* Usage: sphere_report [drag|moving|cost|all] [radius...]; default: all, radii 5 and 8.
  * The drag position average is done for radius 5 only (it costs 4 runs). */
+/* The close approaches: per-step CSV curves and the window means. */
+static int report_approach(const char *dir)
+{
+    const double gaps[] = {2.0, 1.0, 0.5, 0.2, 0.1, 0.05};
+    approach_setup_t runs[3] = {APPROACH_WALL_FULL, APPROACH_PAIR_FULL, APPROACH_PAIR_FULL};
+    const char *names[3] = {"approach_wall", "approach_pair_face", "approach_pair_node"};
+    runs[2].offset = 0.5;
+    printf("# close approaches, radius 8, Re 0.07: (lattice + film) / Brenner, mean over half a cell of travel\n");
+    printf("%-20s %6s %10s %10s %10s %10s\n", "run", "gap/a", "Brenner", "total", "lattice", "seconds");
+    for (int r = 0; r < 3; r++) {
+        char path[512];
+        snprintf(path, sizeof path, "%s/%s.csv", dir, names[r]);
+        runs[r].trace = fopen(path, "w");
+        if (runs[r].trace == NULL) {
+            fprintf(stderr, "sphere_report: cannot write %s (does the folder exist?)\n", path);
+            return 1;
+        }
+        approach_point_t p[6];
+        const double t0 = omp_get_wtime();
+        const long steps = harness_approach(&runs[r], gaps, 6, p);
+        fclose(runs[r].trace);
+        if (steps == 0) {
+            fprintf(stderr, "sphere_report: the run %s failed\n", names[r]);
+            return 1;
+        }
+        for (int k = 0; k < 6; k++) {
+            printf("%-20s %6.2f %10.4f %10.4f %10.4f %10.1f\n", names[r], p[k].gap, p[k].reference, p[k].total,
+                   p[k].lattice, omp_get_wtime() - t0);
+        }
+        fflush(stdout);
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     const char *what = argc > 1 ? argv[1] : "all";
@@ -71,6 +110,15 @@ int main(int argc, char **argv)
     const int do_drag = !strcmp(what, "all") || !strcmp(what, "drag");
     const int do_moving = !strcmp(what, "all") || !strcmp(what, "moving");
     const int do_cost = !strcmp(what, "all") || !strcmp(what, "cost");
+    if (!strcmp(what, "all") || !strcmp(what, "approach")) {
+        const char *dir = !strcmp(what, "approach") && argc > 2 ? argv[2] : "build/report";
+        if (report_approach(dir) != 0) {
+            return 1;
+        }
+        if (strcmp(what, "all")) {
+            return 0;
+        }
+    }
     static const char *sname[] = {"bounce_back", "yu", "cli", "quadratic", "multireflection"};
     static const char *cname[] = {"bgk", "trt"};
     const double *radii = rad;

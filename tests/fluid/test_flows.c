@@ -319,4 +319,5 @@ void fluid_register_tests(int validate)
     kernel_register_tests();
     flows_register_tests(validate);
     spheres_register_tests(validate);
+    approach_register_tests(validate);
 }

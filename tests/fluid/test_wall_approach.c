@@ -1,0 +1,132 @@
+/* test_wall_approach.c — close approaches: a sphere moving towards a no-slip
+ * wall and two spheres moving towards each other at low Reynolds number,
+ * the lattice force plus the lubrication correction (rigid/lubrication.c)
+ * against the exact Stokes results (issue 10).
+ *
+ * References (shared/reference/validation-references.md):
+ * - Brenner, Chem. Eng. Sci. 16 (1961) 242: F = 6 pi mu a U lambda for a
+ *   sphere approaching a plane, exact series for a rigid wall and for a free
+ *   surface; the latter is, by mirror symmetry, two equal spheres closing with
+ *   equal and opposite velocities (their gap = 2 (h - a)).
+ * - Cooley & O'Neill (1969), Jeffrey (1982): the lubrication limits
+ *   lambda -> a/h (wall) and a/(4 (h - a)) (free surface).
+ * The method (approach_harness.h): prescribed motion at U from the steady
+ * flow at the first gap, the force averaged over half a cell of travel
+ * around each gap (what a moving particle feels of the lattice's cell-by-cell
+ * jumps). Radius 8 cells, TRT (magic 3/16), CLI, Re = U a / nu = 0.07. */
+#include "approach_harness.h"
+#include "fluid_tests.h"
+
+#include <CUnit/CUnit.h>
+#include <math.h>
+#include <stdio.h>
+
+static void print_points(const char *what, const approach_point_t *p, int n)
+{
+    for (int k = 0; k < n; k++) {
+        printf("\n    %s gap/a %.2f: Brenner %.4g, lattice + film %.4f of it (%.3f-%.3f in the window), lattice "
+               "alone %.4f, film share %.3f",
+               what, p[k].gap, p[k].reference, p[k].total, p[k].lo, p[k].hi, p[k].lattice, p[k].lub_share);
+    }
+}
+
+/* Asserts the wall approach at gaps[0..n): within tol of Brenner with the
+ * film; where the window stays above the cut-off the film adds nothing (no
+ * double counting) and the lattice alone is within tol; at the smallest gap
+ * the lattice alone is far short (what the correction is for). */
+static void check_wall(const approach_setup_t *set, const double *gaps, int n, double tol)
+{
+    approach_point_t p[8];
+    const long steps = harness_approach(set, gaps, n, p);
+    CU_ASSERT_FATAL(steps > 0);
+    print_points("wall", p, n);
+    for (int k = 0; k < n; k++) {
+        CU_ASSERT(fabs(p[k].total - 1.0) < tol);
+        if (gaps[k] * set->a - 0.25 > set->cutoff) {
+            CU_ASSERT(p[k].lub_share == 0.0);
+            CU_ASSERT(fabs(p[k].lattice - 1.0) < tol);
+        }
+    }
+    CU_ASSERT(p[n - 1].lattice < 0.8);
+}
+
+static void test_wall_approach_quick(void)
+{
+    const approach_setup_t set = {APPROACH_WALL, 8.0, 64, 64, 1.5, 0.003, 0.0, 0.67, 1.1, 0.015, NULL};
+    const double gaps[] = {1.0, 0.5, 0.2, 0.1, 0.05};
+    check_wall(&set, gaps, 5, 0.05);
+}
+
+static void test_wall_approach_full(void)
+{
+    const approach_setup_t set = APPROACH_WALL_FULL;
+    const double gaps[] = {2.0, 1.0, 0.5, 0.2, 0.1, 0.05};
+    check_wall(&set, gaps, 6, 0.05);
+}
+
+/* Two spheres: below a cell the lattice sees the gap only where a row of
+ * nodes lies in it, so the force of one placement depends on where the
+ * midplane sits in the cell; a moving pair passes every placement. Two
+ * extreme placements (midplane on a cell face: no node in a gap below one
+ * cell; on a node plane: one) are run; their mean is held to tol, each to
+ * spread. */
+static void check_pair(approach_setup_t set, const double *gaps, int n, double tol, double spread)
+{
+    approach_point_t p[2][8];
+    for (int o = 0; o < 2; o++) {
+        set.offset = 0.5 * o;
+        const long steps = harness_approach(&set, gaps, n, p[o]);
+        CU_ASSERT_FATAL(steps > 0);
+        printf("\n    midplane %.1f cell above a cell face:", set.offset);
+        print_points("two spheres", p[o], n);
+    }
+    for (int k = 0; k < n; k++) {
+        const double mean = 0.5 * (p[0][k].total + p[1][k].total);
+        printf("\n    two spheres gap/a %.2f: mean of the placements %.4f", gaps[k], mean);
+        CU_ASSERT(fabs(mean - 1.0) < tol);
+        CU_ASSERT(fabs(p[0][k].total - 1.0) < spread && fabs(p[1][k].total - 1.0) < spread);
+    }
+}
+
+static void test_two_spheres_quick(void)
+{
+    const approach_setup_t set = {APPROACH_SPHERES, 8.0, 64, 80, 1.5, 0.003, 0.0, 0.67, 0.3, 0.015, NULL};
+    /* in this box the pair's images add 5% at gap/a 0.2 (3% in the full one) */
+    const double gaps[] = {0.1, 0.05};
+    check_pair(set, gaps, 2, 0.05, 0.25);
+}
+
+static void test_two_spheres_full(void)
+{
+    const approach_setup_t set = APPROACH_PAIR_FULL;
+    const double gaps[] = {2.0, 1.0, 0.5, 0.2, 0.1, 0.05};
+    check_pair(set, gaps, 6, 0.05, 0.25);
+}
+
+static void test_brenner_series(void)
+{
+    /* Brenner's table (validation-references.md): alpha = 0.5 .. 3 */
+    const double alpha[] = {0.5, 1.0, 1.5, 2.0, 2.5, 3.0}, table[] = {9.2518, 3.0361, 1.8375, 1.4129, 1.2220, 1.1252};
+    for (int k = 0; k < 6; k++) {
+        CU_ASSERT(fabs(brenner_lambda(cosh(alpha[k]) - 1.0, 0) / table[k] - 1.0) < 1e-4); /* the table has 5 digits */
+    }
+    /* the limits: a/h near the wall, a/(4h) near a free surface, 1 + 9/8 a/h far */
+    CU_ASSERT(fabs(brenner_lambda(0.02, 0) / 51.761 - 1.0) < 1e-4);
+    CU_ASSERT(fabs(brenner_lambda(0.02, 1) / 15.309 - 1.0) < 1e-4);
+    CU_ASSERT(fabs(brenner_lambda(1e-3, 0) * 1e-3 - 1.0) < 0.01);
+    CU_ASSERT(fabs(brenner_lambda(1e-3, 1) * 1e-3 * 4.0 - 1.0) < 0.04);
+    CU_ASSERT(fabs((brenner_lambda(199.0, 0) - 1.0) / (9.0 / 8.0 / 200.0) - 1.0) < 0.01);
+}
+
+void approach_register_tests(int validate)
+{
+    CU_pSuite s = CU_add_suite("close approaches", NULL, NULL);
+    CU_add_test(s, "Brenner's series reproduces his table and limits", test_brenner_series);
+    CU_add_test(s, "sphere to wall r=8: Brenner within 5% at gap/a 1..0.05", test_wall_approach_quick);
+    CU_add_test(s, "two spheres r=8: Brenner (free surface) within 5% at gap/a 0.1, 0.05", test_two_spheres_quick);
+    if (validate) {
+        CU_pSuite v = CU_add_suite("close approaches-validate", NULL, NULL);
+        CU_add_test(v, "sphere to wall r=8, 96^3: Brenner within 5% at gap/a 2..0.05", test_wall_approach_full);
+        CU_add_test(v, "two spheres r=8, 96^2 x 128: within 5% at gap/a 2..0.05", test_two_spheres_full);
+    }
+}
