@@ -183,30 +183,35 @@ static void delivered_load(const fluid_t *fl, const sphere_t *p, double force[3]
 
 /* The period-2 watch. Explicit coupling feeds the particle velocity of one
  * step into the boundary force of the next; for a light or small particle
- * this force reacts so strongly that the velocity overshoots and the load
- * flips every step (an added-mass type instability). For each free sphere
- * the delivered load (averaged when fluid.force_averaging is on) is watched:
- * the second difference d_n = L_n - 2 L_(n-1) + L_(n-2) of a period-2
- * signal of amplitude A is +-4A with alternating sign, of a smooth signal
- * about 0. WATCH_STEPS steps in a row with d_n . d_(n-1) < 0 and |d_n|/4
- * above WATCH_AMPLITUDE of the mean load |L_n + L_(n-1)|/2 (force, or
- * torque / radius; at least the Stokes drag of the sphere's motion) raise one
- * warning per sphere, with the remedies, unless the oscillation decays: the
- * start-up transient of a particle released from rest or set in motion at once
- * (the dual star's first steps in shear) flips too, but its amplitude falls.
- * So after WATCH_STEPS alternating steps the absolute amplitude is compared
- * with the one at the start of the window: below WATCH_DECAY of it the window
- * starts again (a transient), otherwise (persistent) it warns. A growing
+ * this force reacts so strongly that the velocity overshoots and flips every
+ * step (an added-mass type instability). For each free sphere its motion,
+ * the velocity v and the surface speed w r that the master sets every step,
+ * is watched: the second difference d_n = m_n - 2 m_(n-1) + m_(n-2) of a
+ * period-2 signal of amplitude A is +-4A with alternating sign, of a smooth
+ * signal about 0. The motion, not the load: close to tau = 1/2 the lattice's
+ * own non-equilibrium parts flip sign every step (relaxation factor
+ * 1 - 1/tau = -0.96 at tau 0.51), and the load on a moving sphere alternates
+ * by twice its mean even with the motion prescribed, while a stable free
+ * sphere under that load moves smoothly (0.2% period-2 in its velocity). So
+ * WATCH_STEPS steps in a row with d_n . d_(n-1) < 0 and |d_n|/4 above
+ * WATCH_AMPLITUDE of the mean speed |m_n + m_(n-1)|/2 (velocity, or surface
+ * speed; at least WATCH_SPEED_FLOOR in lattice units, so that the round-off
+ * of a sphere at rest is no oscillation) raise one warning per sphere, with
+ * the remedies, unless the oscillation decays: the start-up transient of a
+ * particle released from rest or set in motion at once (the dual star's
+ * first steps in shear) flips too, but its amplitude falls. So after
+ * WATCH_STEPS alternating steps the absolute amplitude is compared with the
+ * one at the start of the window: below WATCH_DECAY of it the window starts
+ * again (a transient), otherwise (persistent) it warns. A growing
  * oscillation may wreck the run sooner (an unstable light sphere moves more
  * than a cell per step within 15-25 steps): when the amplitude has grown in
  * each of WATCH_GROW_STEPS alternating steps in a row, to WATCH_GROW times
  * its value where that growth began or more, it warns at once, before the
- * failure it explains. (Growth every step, not merely a larger amplitude:
- * the lattice noise of a sphere started at speed from rest, whose signs
- * alternate by chance for a few steps, grew by 2 in 6 steps but not steadily.) */
+ * failure it explains (steady growth, not merely a larger amplitude, which
+ * noise that alternates by chance for a few steps can show). */
 enum { WATCH_STEPS = 30, WATCH_GROW_STEPS = 6 };
-static const double PI = 3.14159265358979323846;
 static const double WATCH_AMPLITUDE = 0.02;
+static const double WATCH_SPEED_FLOOR = 1e-3;
 static const double WATCH_DECAY = 0.9;
 static const double WATCH_GROW = 4.0;
 
@@ -218,33 +223,28 @@ static status_t watch_period_two(fluid_t *fl)
         if (p->motion != MOTION_FREE || p->warned) {
             continue;
         }
-        double load[6];
-        delivered_load(fl, p, load, load + 3);
+        double motion[6];
+        for (int a = 0; a < 3; a++) {
+            motion[a] = p->v[a];
+            motion[3 + a] = p->w[a] * p->r;
+        }
         memmove(p->hist[1], p->hist[0], 2 * sizeof p->hist[0]);
-        memcpy(p->hist[0], load, sizeof load);
+        memcpy(p->hist[0], motion, sizeof motion);
         if (p->nhist < 3) {
             p->nhist++;
             continue;
         }
-        /* force and torque/radius, both against one scale: the mean load
-         * S = max(|F|, |T|/r), so that a torque that is about zero (a
-         * settling sphere) or a force that is about zero (a sphere turning
-         * in shear) does not count its round-off noise as an oscillation */
-        double d[6], mf = 0.0, mt = 0.0;
+        /* velocity and surface speed, both against one scale: the mean
+         * speed S = max(|v|, |w| r, floor), so that a rotation that is about
+         * zero (a settling sphere) or a velocity that is about zero (a sphere
+         * turning in shear) does not count its round-off as an oscillation */
+        double d[6], mv = 0.0, mw = 0.0;
         for (int a = 0; a < 6; a++) {
-            const double w = a < 3 ? 1.0 : 1.0 / p->r;
-            const double m = 0.5 * (p->hist[0][a] + p->hist[1][a]) * w;
-            d[a] = (p->hist[0][a] - 2.0 * p->hist[1][a] + p->hist[2][a]) * w;
-            *(a < 3 ? &mf : &mt) += m * m;
+            const double m = 0.5 * (p->hist[0][a] + p->hist[1][a]);
+            d[a] = p->hist[0][a] - 2.0 * p->hist[1][a] + p->hist[2][a];
+            *(a < 3 ? &mv : &mw) += m * m;
         }
-        /* ... and never below the Stokes drag of the sphere's own motion,
-         * 6 pi rho nu a (|v| + |w| a) (lattice units), so that a freely
-         * turning neutrally buoyant sphere, whose mean load tends to zero,
-         * does not count the lattice noise of that load as an oscillation */
-        const double nu = (fl->units.tau - 0.5) / 3.0;
-        const double speed = sqrt(p->v[0] * p->v[0] + p->v[1] * p->v[1] + p->v[2] * p->v[2]) +
-                             sqrt(p->w[0] * p->w[0] + p->w[1] * p->w[1] + p->w[2] * p->w[2]) * p->r;
-        const double scale = fmax(fmax(sqrt(fmax(mf, mt)), 6.0 * PI * nu * p->r * speed), 1e-300);
+        const double scale = fmax(sqrt(fmax(mv, mw)), WATCH_SPEED_FLOOR);
         int alternating = 0;
         double amp = 0.0, amp_abs = 0.0;
         for (int o = 0; o < 6; o += 3) {
@@ -282,8 +282,8 @@ static status_t watch_period_two(fluid_t *fl)
             const double dx = fl->units.dx;
             st = status_worst(st, log_msg(&fl->log, STATUS_WARNING, "fluid",
                 "%s: sphere %d (radius %.3g cells, density ratio %.3g) at (%.4g, %.4g, %.4g) m, step %ld (t = %.6g s): "
-                "its hydrodynamic load has alternated every step for %d steps (period-2 oscillation, amplitude %.3g%% "
-                "of the mean load%s): explicit coupling of a light or small particle, whose boundary force reacts at once "
+                "its velocity has alternated every step for %d steps (period-2 oscillation, amplitude %.3g%% "
+                "of its speed%s): explicit coupling of a light or small particle, whose boundary force reacts at once "
                 "to its velocity (an added-mass type instability). Remedies: rigid.coupling: auto or implicit "
                 "(the default auto picks implicit for this body unless set otherwise) with fluid.force_averaging "
                 "true or not set (stable down to density ratio 0.03 at radius 3 cells), more cells per radius "

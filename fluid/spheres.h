@@ -40,7 +40,7 @@ typedef struct {
     int averaging;           /* deliver the load averaged over two steps (common/coupling.h) */
     /* period-2 watch (fluid.c): the last three delivered loads (force,
      * torque), steps in a row that alternate, warned once */
-    double hist[3][6], hist_d[6]; /* loads L_n, L_(n-1), L_(n-2); the last second difference */
+    double hist[3][6], hist_d[6]; /* motion (v, w r) at steps n, n-1, n-2; the last second difference */
     double amp0;                  /* amplitude at the start of the current alternating run */
     double amp_prev, amp_grow0;   /* last amplitude; amplitude where the current growing run began */
     int nhist, nalt, ngrow, warned;

@@ -10,10 +10,10 @@ array factor for D/L = 1/4 and the Schiller-Naumann Reynolds correction).
 Verdict: "stable" (the run ends, no period-2 warning), "oscillates" (the
 fluid's period-2 watch warned), or "fails" (the run stopped; the cause from the
 message). A case that is not stable is run again as a control: the same sphere
-held fixed in the same relative flow (the fluid starting at the sphere's
-speed, the body force holding it against the drag). When the control fails
-too, the limit is the fluid's (the lattice at that tau and speed), not the
-coupling's: the detail says "fluid limit". Usage:
+moving at the case's speed with its motion prescribed (no coupling at all), the
+body force on the fluid balancing its drag. When the control fails too, the
+limit is the fluid's (the lattice and the moving boundary at that tau and
+speed), not the coupling's: the detail says "fluid limit". Usage:
 
     tools/stability_sweep.py [--quick] [--csv OUT.csv] [--set KEY=VALUE]... [--label NAME]
 
@@ -72,8 +72,9 @@ def case_scene(a_cells, ratio, tau, u_lat, steps):
 
 
 def control_scene(a_cells, ratio, tau, u_lat, steps):
-    """The control of a case: the sphere fixed, the fluid moving past it at the case's speed
-    (initial velocity u, a body force equal to the drag per fluid volume keeps it going)."""
+    """The control of a case: the sphere moves down at the case's speed with its motion
+    prescribed (no coupling), through fluid at rest; a body force equal to its drag per fluid
+    volume pushes the fluid down with it, so that the fluid as a whole does not accelerate."""
     text = case_scene(a_cells, ratio, tau, u_lat, steps)
     dx, nu = 1.0e-3, 1.0e-6
     dt = (tau - 0.5) * dx * dx / (3.0 * nu)
@@ -81,10 +82,9 @@ def control_scene(a_cells, ratio, tau, u_lat, steps):
     L, a, u = n * dx, a_cells * dx, u_lat * dx / dt
     rey = 2.0 * a * u / nu
     drag = 6.0 * math.pi * 1.0e-3 * a * u * 1.5 * (1.0 + 0.15 * rey ** 0.687)
-    fb = drag / (L ** 3 - 4.0 / 3.0 * math.pi * a ** 3)
-    text = re.sub(r"body_force: \[0, 0, [^\]]*\]", f"body_force: [0, 0, {fb!r}]\n  initial_velocity: [0, 0, {u!r}]",
-                  text)
-    text = text.replace("  - density:", "  - motion: fixed\n    density:")
+    fb = -drag / (L ** 3 - 4.0 / 3.0 * math.pi * a ** 3)
+    text = re.sub(r"body_force: \[0, 0, [^\]]*\]", f"body_force: [0, 0, {fb!r}]", text)
+    text = text.replace("  - density:", f"  - motion: prescribed\n    velocity: [0, 0, {-u!r}]\n    density:")
     return re.sub(r"gravity: \[0, 0, [^\]]*\]", "gravity: [0, 0, 0]", text)
 
 
@@ -109,10 +109,10 @@ def run_case(args):
         rc, err = one_run(control_scene(a, ratio, tau, u, steps), sets, coupler)
         if rc != 0:
             errors = [l for l in err.splitlines() if l.startswith("error:")]
-            why += "; fluid limit: the fixed sphere in the same flow fails too (%s)" % (
+            why += "; fluid limit: the same motion prescribed fails too (%s)" % (
                 errors[0][:160] if errors else "exit %d" % rc)
         else:
-            why += "; control: the fixed sphere in the same flow runs"
+            why += "; control: the same motion prescribed runs"
     return verdict, why
 
 

@@ -173,11 +173,15 @@ def test_settling_box_matrix_converges(coupler, tmp_path):
             d1, d2 = abs(u[1] - u[0]), abs(u[2] - u[1])
             if not (d2 < d1 or d2 < 0.01 * u[2]):
                 fail.append(f"{case}: u_max does not converge: {u}")
-    table = FIG_DIR / "settling_box.txt"
-    table.write_text(SETTLING_HEAD + "\n" + "\n".join(lines) + "\n")
-    png = _settling_figure(res, FIG_DIR / "settling_box_velocity.png")
-    print(f"\nsettling table: {table}\nsettling figure: {png}")
+    _table_and_figure("settling", SETTLING_HEAD, lines, _settling_figure(res, FIG_DIR / "settling_box_velocity.png"))
     assert not fail, "\n".join(fail)
+
+
+def _table_and_figure(what, head, lines, png):
+    """Writes the table of a validation beside its figure and says where both are."""
+    table = FIG_DIR / ("settling_box.txt" if what == "settling" else "wet_restitution.txt")
+    table.write_text(head + "\n" + "\n".join(lines) + "\n")
+    print(f"\n{what} table: {table}\n{what} figure: {png}")
 
 
 def _settling_figure(res, path):
@@ -270,10 +274,7 @@ def test_wet_restitution_curve(coupler, tmp_path):
             lines.append(restitution_line(st, scene, m, wall))
             print(lines[-1], flush=True)
             fail += restitution_checks(m, f"ratio {ratio:g} St {st}")
-    table = FIG_DIR / "wet_restitution.txt"
-    table.write_text(RESTITUTION_HEAD + "\n" + "\n".join(lines) + "\n")
-    png = _restitution_figure(res, FIG_DIR / "wet_restitution.png")
-    print(f"\nrestitution table: {table}\nrestitution figure: {png}")
+    _table_and_figure("restitution", RESTITUTION_HEAD, lines, _restitution_figure(res, FIG_DIR / "wet_restitution.png"))
     assert not fail, "\n".join(fail)
 
 
