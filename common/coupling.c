@@ -62,18 +62,9 @@ body_coupling_t coupling_of_body(const scene_t *s, int b)
         return c;
     }
     c.kappa = body_kappa(s, b);
-    switch (s->rigid.coupling) {
-    case COUPLING_EXPLICIT:
-        c.coupling = COUPLING_EXPLICIT;
-        break;
-    case COUPLING_IMPLICIT:
-        c.coupling = COUPLING_IMPLICIT;
-        break;
-    case COUPLING_AUTO:
-    default:
-        c.coupling = c.kappa >= COUPLING_AUTO_KAPPA ? COUPLING_IMPLICIT : COUPLING_EXPLICIT;
-        break;
-    }
+    c.coupling = s->rigid.coupling != COUPLING_AUTO ? s->rigid.coupling
+                 : c.kappa >= COUPLING_AUTO_KAPPA  ? COUPLING_IMPLICIT
+                                                   : COUPLING_EXPLICIT;
     /* fluid.force_averaging given: as given; not given (-1): with the implicit coupling */
     c.averaging = s->fluid.force_averaging >= 0 ? s->fluid.force_averaging : c.coupling == COUPLING_IMPLICIT;
     return c;
@@ -88,12 +79,14 @@ void coupling_describe(const scene_t *s, int b, char *buf, size_t size)
                  s->bodies[b].motion == MOTION_FIXED ? "fixed" : "prescribed");
         return;
     }
-    const char *why = s->rigid.coupling == COUPLING_AUTO
-                          ? (c.coupling == COUPLING_IMPLICIT ? "auto: kappa >= " COUPLING_AUTO_KAPPA_TEXT
-                                                               ", explicit coupling would risk the "
-                                                               "period-2 (added-mass) instability"
-                                                             : "auto: kappa < " COUPLING_AUTO_KAPPA_TEXT ", a heavy body: the paper's scheme")
-                          : "as set by rigid.coupling";
+    char why[160] = "as set by rigid.coupling";
+    if (s->rigid.coupling == COUPLING_AUTO) {
+        snprintf(why, sizeof why, c.coupling == COUPLING_IMPLICIT
+                                      ? "auto: kappa >= %g, explicit coupling would risk the period-2 (added-mass) "
+                                        "instability"
+                                      : "auto: kappa < %g, a heavy body: the paper's scheme",
+                 COUPLING_AUTO_KAPPA);
+    }
     snprintf(buf, size, "body %d %s: %s%s (kappa = h zeta/m = %.3g, density ratio %.3g; %s)", b, name,
              c.coupling == COUPLING_IMPLICIT ? "implicit" : "explicit",
              c.averaging ? " + force averaging" : "", c.kappa, s->bodies[b].density / s->fluid.density, why);

@@ -12,7 +12,6 @@
 /* Bodies whose explicit feedback number kappa is at least this get the
  * implicit coupling with force averaging under rigid.coupling: auto. */
 #define COUPLING_AUTO_KAPPA 0.025
-#define COUPLING_AUTO_KAPPA_TEXT "0.025"
 
 typedef struct {
     coupling_t coupling; /* COUPLING_EXPLICIT or COUPLING_IMPLICIT, never AUTO */

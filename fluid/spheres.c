@@ -148,12 +148,13 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
         for (int a = 0; a < 3; a++) {
             cb[a] /= vol;
         }
+        const int averaging = coupling_of_body(s, b).averaging;
         for (int i = 0; i < body->nspheres; i++, k++) {
             sphere_t *p = &sp->s[k];
             p->body = b;
             p->motion = body->motion;
             p->density_ratio = body->density / s->fluid.density;
-            p->averaging = coupling_of_body(s, b).averaging;
+            p->averaging = averaging;
             p->r = body->spheres[i].radius / u->dx;
             double rel[3];
             for (int a = 0; a < 3; a++) {

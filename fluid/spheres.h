@@ -38,8 +38,8 @@ typedef struct {
     double zt, zr;           /* drag coefficients of the last step: -dF/dv and -dT/dw (isotropic parts) */
     double density_ratio;    /* particle / fluid density */
     int averaging;           /* deliver the load averaged over two steps (common/coupling.h) */
-    /* period-2 watch (fluid.c): the last three delivered loads (force,
-     * torque), steps in a row that alternate, warned once */
+    /* period-2 watch (fluid.c): the last three motions (velocity, surface
+     * speed), steps in a row that alternate and that grow, warned once */
     double hist[3][6], hist_d[6]; /* motion (v, w r) at steps n, n-1, n-2; the last second difference */
     double amp0;                  /* amplitude at the start of the current alternating run */
     double amp_prev, amp_grow0;   /* last amplitude; amplitude where the current growing run began */

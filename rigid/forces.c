@@ -13,6 +13,20 @@
 
 #include <string.h>
 
+void rigid_body_point_velocity(const rigid_body_t *b, const double a[3], double v[3])
+{
+    if (b->fixed) {
+        v[0] = v[1] = v[2] = 0.0;
+        return;
+    }
+    double w[3], u[3];
+    rigid_body_omega(b, w);
+    rv_cross(w, a, u);
+    for (int k = 0; k < 3; k++) {
+        v[k] = b->v[k] + u[k];
+    }
+}
+
 void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, double x[3], double v[3], double w[3])
 {
     const rigid_sphere_t *s = &r->spheres[i];

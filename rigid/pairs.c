@@ -27,21 +27,6 @@ const char *rigid_face_name(int face)
     return face >= 0 && face < 6 ? FACE_NAMES[face] : "?";
 }
 
-/* Velocity of the material of body b at arm a from its centre of mass. */
-static void point_velocity(const rigid_body_t *b, const double a[3], double v[3])
-{
-    if (b->fixed) {
-        v[0] = v[1] = v[2] = 0.0;
-        return;
-    }
-    double w[3], u[3];
-    rigid_body_omega(b, w);
-    rv_cross(w, a, u);
-    for (int k = 0; k < 3; k++) {
-        v[k] = b->v[k] + u[k];
-    }
-}
-
 static int visit_spheres(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], int i, int j, double reach,
                          rigid_pair_fn fn, void *ctx)
 {
@@ -82,8 +67,8 @@ static int visit_spheres(rigid_t *r, const rigid_body_t *bodies, const double (*
         p.ai[a] = p.pc[a] - bi->com[a];
         p.aj[a] = p.pc[a] - (bj->com[a] + shift[a]);
     }
-    point_velocity(bi, p.ai, ui);
-    point_velocity(bj, p.aj, uj);
+    rigid_body_point_velocity(bi, p.ai, ui);
+    rigid_body_point_velocity(bj, p.aj, uj);
     rv_sub(ui, uj, p.vrel);
     return fn(r, bodies, &p, ctx);
 }
@@ -111,7 +96,7 @@ static int visit_walls(rigid_t *r, const rigid_body_t *bodies, const double (*x)
             p.pc[a] = x[i][a] + (si->radius + p.gap) * p.n[a];
             p.ai[a] = p.pc[a] - bi->com[a];
         }
-        point_velocity(bi, p.ai, ui);
+        rigid_body_point_velocity(bi, p.ai, ui);
         rv_sub(ui, cfg->wall_velocity[ax][side], p.vrel);
         bad |= fn(r, bodies, &p, ctx);
     }

@@ -352,17 +352,13 @@ status_t rigid_stick(rigid_t *r, int *changed)
                     r->touch[(size_t)i * r->nspheres + j]) {
                     continue;
                 }
-                double pc[3], n[3], wi[3], wj[3], ai[3], aj[3], ui[3], uj[3], vr[3];
+                double pc[3], n[3], ai[3], aj[3], ui[3], uj[3], vr[3];
                 rigid_connection_point(r, i, j, xi, xj, pc, n);
-                rigid_sphere_world(r, r->bodies, i, NULL, NULL, wi);
-                rigid_sphere_world(r, r->bodies, j, NULL, NULL, wj);
                 rv_sub(pc, bi->com, ai);
                 rv_sub(pc, bj->com, aj);
-                rv_cross(wi, ai, ui);
-                rv_cross(wj, aj, uj);
-                for (int a = 0; a < 3; a++) {
-                    vr[a] = (bi->fixed ? 0.0 : bi->v[a] + ui[a]) - (bj->fixed ? 0.0 : bj->v[a] + uj[a]);
-                }
+                rigid_body_point_velocity(bi, ai, ui);
+                rigid_body_point_velocity(bj, aj, uj);
+                rv_sub(ui, uj, vr);
                 double vn = fabs(rv_dot(vr, n));
                 if (vn >= r->cfg.stick_speed) {
                     continue;

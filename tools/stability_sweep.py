@@ -53,38 +53,39 @@ run:
 """
 
 
-def case_scene(a_cells, ratio, tau, u_lat, steps):
-    """Scene text for one case (SI; dx = 1 mm, water-like fluid)."""
+def case_numbers(a_cells, tau, u_lat):
+    """SI numbers of a case (dx = 1 mm, water-like fluid): the step, the box, the sphere, its
+    speed and its expected drag (Stokes drag times the array factor K(D/L = 1/4) ~ 1.5 and the
+    Schiller-Naumann Reynolds correction)."""
     dx, nu, rho_f = 1.0e-3, 1.0e-6, 1000.0
     dt = (tau - 0.5) * dx * dx / (3.0 * nu)
-    n = 8 * a_cells
-    L, a = n * dx, a_cells * dx
+    L, a = 8 * a_cells * dx, a_cells * dx
     u = u_lat * dx / dt
-    mu = rho_f * nu
     re = 2.0 * a * u / nu
-    drag = 6.0 * math.pi * mu * a * u * 1.5 * (1.0 + 0.15 * re ** 0.687)  # K(D/L=1/4) ~ 1.5
-    vol = 4.0 / 3.0 * math.pi * a ** 3
-    g = -drag / (abs(ratio - 1.0) * rho_f * vol)
+    drag = 6.0 * math.pi * rho_f * nu * a * u * 1.5 * (1.0 + 0.15 * re ** 0.687)
+    return dict(dx=dx, dt=dt, rho_f=rho_f, L=L, a=a, u=u, vol=4.0 / 3.0 * math.pi * a ** 3, drag=drag)
+
+
+def case_scene(a_cells, ratio, tau, u_lat, steps):
+    """Scene text for one case."""
+    k = case_numbers(a_cells, tau, u_lat)
+    rho_f, vol, L = k["rho_f"], k["vol"], k["L"]
+    g = -k["drag"] / (abs(ratio - 1.0) * rho_f * vol)
     weight = (ratio - 1.0) * rho_f * vol * g  # net weight of the sphere (N, z)
     fb = -weight / (L ** 3 - vol)             # counter body force on the fluid (N/m^3)
-    return SCENE.format(L=L, dx=dx, tau=tau, fb=fb, rho_p=ratio * rho_f, c=L / 2, a=a, g=g,
-                        t_end=steps * dt, t_out=steps * dt / 20)
+    return SCENE.format(L=L, dx=k["dx"], tau=tau, fb=fb, rho_p=ratio * rho_f, c=L / 2, a=k["a"], g=g,
+                        t_end=steps * k["dt"], t_out=steps * k["dt"] / 20)
 
 
 def control_scene(a_cells, ratio, tau, u_lat, steps):
     """The control of a case: the sphere moves down at the case's speed with its motion
     prescribed (no coupling), through fluid at rest; a body force equal to its drag per fluid
     volume pushes the fluid down with it, so that the fluid as a whole does not accelerate."""
+    k = case_numbers(a_cells, tau, u_lat)
+    fb = -k["drag"] / (k["L"] ** 3 - k["vol"])
     text = case_scene(a_cells, ratio, tau, u_lat, steps)
-    dx, nu = 1.0e-3, 1.0e-6
-    dt = (tau - 0.5) * dx * dx / (3.0 * nu)
-    n = 8 * a_cells
-    L, a, u = n * dx, a_cells * dx, u_lat * dx / dt
-    rey = 2.0 * a * u / nu
-    drag = 6.0 * math.pi * 1.0e-3 * a * u * 1.5 * (1.0 + 0.15 * rey ** 0.687)
-    fb = -drag / (L ** 3 - 4.0 / 3.0 * math.pi * a ** 3)
     text = re.sub(r"body_force: \[0, 0, [^\]]*\]", f"body_force: [0, 0, {fb!r}]", text)
-    text = text.replace("  - density:", f"  - motion: prescribed\n    velocity: [0, 0, {-u!r}]\n    density:")
+    text = text.replace("  - density:", f"  - motion: prescribed\n    velocity: [0, 0, {-k['u']!r}]\n    density:")
     return re.sub(r"gravity: \[0, 0, [^\]]*\]", "gravity: [0, 0, 0]", text)
 
 
@@ -118,20 +119,11 @@ def run_case(args):
 
 def run_free(args):
     a, ratio, tau, u, steps, sets, coupler = args
-    with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, "case.yaml")
-        with open(path, "w") as f:
-            f.write(case_scene(a, ratio, tau, u, steps))
-        cmd = [coupler, "run", path, "-o", os.path.join(tmp, "out.h5"), "--quiet"]
-        for s in sets:
-            cmd += ["--set", s]
-        env = dict(os.environ, OMP_NUM_THREADS="1")
-        p = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    err = p.stderr
-    if p.returncode != 0:
+    returncode, err = one_run(case_scene(a, ratio, tau, u, steps), sets, coupler)
+    if returncode != 0:
         errors = "\n".join(l for l in err.splitlines() if l.startswith("error:"))
         m = re.search(r"(moves [0-9.e+]+ cells in one step at step \d+|at step \d+|step \d+)", errors)
-        cause = m.group(1) if m else "exit %d" % p.returncode
+        cause = m.group(1) if m else "exit %d" % returncode
         for key in ("non-finite", "non-positive density", "Mach", "reached face", "overlap"):
             if key in errors:
                 cause += " (" + key + ")"
