@@ -18,6 +18,11 @@ struct h5fields {
     int nsnaps, cap;
 };
 
+static status_t open_file(const char *path, const int n[3], double dx, int resume, const log_t *log,
+                          h5fields_t **out);
+static status_t remember(h5fields_t *w, long step, double time);
+static status_t write_xmf(h5fields_t *w);
+
 static status_t fail(const h5fields_t *w, const char *what)
 {
     return log_msg(&w->log, STATUS_ERROR, "fields", "%s: HDF5 error while writing %s", w->path, what);
@@ -41,6 +46,12 @@ status_t h5fields_close(h5fields_t *w)
 }
 
 status_t h5fields_open(const char *path, const int n[3], double dx, const log_t *log, h5fields_t **out)
+{
+    return open_file(path, n, dx, 0, log, out);
+}
+
+static status_t open_file(const char *path, const int n[3], double dx, int resume, const log_t *log,
+                          h5fields_t **out)
 {
     *out = NULL;
     h5fields_t *w = calloc(1, sizeof *w);
@@ -67,10 +78,10 @@ status_t h5fields_open(const char *path, const int n[3], double dx, const log_t 
     memcpy(w->n, n, sizeof w->n);
     w->dx = dx;
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL); /* errors are reported by us */
-    w->file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    w->file = resume ? H5Fopen(path, H5F_ACC_RDWR, H5P_DEFAULT) : H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (w->file < 0) {
-        log_msg(log, STATUS_ERROR, "fields", "%s: cannot create the field file (does the folder exist and is it writable?)",
-                path);
+        log_msg(log, STATUS_ERROR, "fields", "%s: cannot %s the field file (%s)", path, resume ? "open" : "create",
+                resume ? "is it there, an HDF5 file, writable?" : "does the folder exist and is it writable?");
         h5fields_close(w);
         return STATUS_ERROR;
     }
@@ -228,4 +239,69 @@ status_t h5fields_write(h5fields_t *w, long step, double time, const double *den
     }
     st = remember(w, step, time);
     return st != STATUS_OK ? st : write_xmf(w);
+}
+
+/* Every snapshot group already in the file, into the sorted list. */
+static herr_t found_snapshot(hid_t group, const char *name, const H5L_info_t *info, void *data)
+{
+    (void)info;
+    h5fields_t *w = data;
+    char *end;
+    const long step = strtol(name, &end, 10);
+    double time = 0.0;
+    if (*end != '\0' || step < 0) {
+        return 0; /* not a snapshot of ours: left alone */
+    }
+    hid_t a = H5Aopen_by_name(group, name, "time", H5P_DEFAULT, H5P_DEFAULT);
+    if (a < 0 || H5Aread(a, H5T_NATIVE_DOUBLE, &time) < 0) {
+        if (a >= 0) {
+            H5Aclose(a);
+        }
+        return -1;
+    }
+    H5Aclose(a);
+    return remember(w, step, time) == STATUS_OK ? 0 : -1;
+}
+
+status_t h5fields_resume(const char *path, const int n[3], double dx, const log_t *log, h5fields_t **out)
+{
+    h5fields_t *w;
+    status_t st = open_file(path, n, dx, 1, log, &w);
+    if (st != STATUS_OK) {
+        return st;
+    }
+    if (H5Lexists(w->file, "/fields", H5P_DEFAULT) > 0) {
+        hid_t g = H5Gopen2(w->file, "/fields", H5P_DEFAULT);
+        if (g < 0 || H5Literate(g, H5_INDEX_NAME, H5_ITER_INC, NULL, found_snapshot, w) < 0) {
+            st = log_msg(log, STATUS_ERROR, "fields", "%s: cannot read the snapshots already written", path);
+        }
+        if (g >= 0) {
+            H5Gclose(g);
+        }
+    }
+    if (st != STATUS_OK) {
+        h5fields_close(w);
+        return st;
+    }
+    *out = w;
+    return STATUS_OK;
+}
+
+status_t h5fields_drop_after(h5fields_t *w, long step)
+{
+    if (w->nsnaps == 0 || w->steps[w->nsnaps - 1] <= step) {
+        return STATUS_OK;
+    }
+    while (w->nsnaps > 0 && w->steps[w->nsnaps - 1] > step) {
+        char name[64];
+        snprintf(name, sizeof name, "/fields/%06ld", w->steps[w->nsnaps - 1]);
+        if (H5Lexists(w->file, name, H5P_DEFAULT) > 0 && H5Ldelete(w->file, name, H5P_DEFAULT) < 0) {
+            return fail(w, name);
+        }
+        w->nsnaps--;
+    }
+    if (H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0) {
+        return fail(w, "the file (flushing)");
+    }
+    return write_xmf(w);
 }

@@ -17,6 +17,11 @@ typedef struct h5fields h5fields_t;
 
 /* Creates (truncates) path; errors name the file. */
 status_t h5fields_open(const char *path, const int n[3], double dx, const log_t *log, h5fields_t **out);
+/* Opens the field file of an interrupted run to continue it: the snapshots
+ * already in it stay and are listed in the index. */
+status_t h5fields_resume(const char *path, const int n[3], double dx, const log_t *log, h5fields_t **out);
+/* Drops the snapshots after `step` (a restored state continues from there). */
+status_t h5fields_drop_after(h5fields_t *w, long step);
 status_t h5fields_write(h5fields_t *w, long step, double time, const double *density, const double *velocity,
                         const unsigned char *flags);
 /* Closes the file and frees w (NULL is fine). */

@@ -27,7 +27,8 @@ const char *const fmu_call_names[FMU_NCALLS] = {
     "fmi2Instantiate", "fmi2SetupExperiment", "fmi2EnterInitializationMode", "fmi2ExitInitializationMode",
     "fmi2SetReal",     "fmi2SetString",       "fmi2GetReal",                 "fmi2GetInteger",
     "fmi2GetBoolean",  "fmi2DoStep",          "fmi2GetFMUstate",             "fmi2SetFMUstate",
-    "fmi2FreeFMUstate", "fmi2Terminate",      "fmi2FreeInstance",
+    "fmi2FreeFMUstate", "fmi2SerializedFMUstateSize", "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate",
+    "fmi2Terminate",      "fmi2FreeInstance",
 };
 
 /* Pointer types of the functions the master calls (FMI 2.0, 2.1 and 4.2). */
@@ -43,6 +44,9 @@ typedef fmi2Status (*set_string_fn)(fmi2Component, const fmi2ValueReference *, s
 typedef fmi2Status (*do_step_fn)(fmi2Component, fmi2Real, fmi2Real, fmi2Boolean);
 typedef fmi2Status (*get_state_fn)(fmi2Component, fmi2FMUstate *);
 typedef fmi2Status (*set_state_fn)(fmi2Component, fmi2FMUstate);
+typedef fmi2Status (*state_size_fn)(fmi2Component, fmi2FMUstate, size_t *);
+typedef fmi2Status (*serialize_fn)(fmi2Component, fmi2FMUstate, fmi2Byte[], size_t);
+typedef fmi2Status (*deserialize_fn)(fmi2Component, const fmi2Byte[], size_t, fmi2FMUstate *);
 typedef const char *(*version_fn)(void);
 
 typedef struct {
@@ -59,6 +63,9 @@ typedef struct {
     get_state_fn get_state;
     set_state_fn set_state;
     get_state_fn free_state;
+    state_size_fn state_size;
+    serialize_fn serialize;
+    deserialize_fn deserialize;
 } fmi_api_t;
 
 struct fmu {
@@ -351,7 +358,10 @@ status_t fmu_load(const char *path, const char *work_dir, const char *label, FIL
         !resolve(f, "fmi2DoStep", &a->do_step, sizeof a->do_step) ||
         !resolve(f, "fmi2GetFMUstate", &a->get_state, sizeof a->get_state) ||
         !resolve(f, "fmi2SetFMUstate", &a->set_state, sizeof a->set_state) ||
-        !resolve(f, "fmi2FreeFMUstate", &a->free_state, sizeof a->free_state)) {
+        !resolve(f, "fmi2FreeFMUstate", &a->free_state, sizeof a->free_state) ||
+        !resolve(f, "fmi2SerializedFMUstateSize", &a->state_size, sizeof a->state_size) ||
+        !resolve(f, "fmi2SerializeFMUstate", &a->serialize, sizeof a->serialize) ||
+        !resolve(f, "fmi2DeSerializeFMUstate", &a->deserialize, sizeof a->deserialize)) {
         st = STATUS_ERROR;
         goto done;
     }
@@ -531,6 +541,47 @@ status_t fmu_free_state(fmu_t *f, void **state)
     status_t st = finish(f, FMU_CALL_FREE_STATE, "", f->api.free_state(f->inst, &s));
     *state = s;
     return st;
+}
+
+status_t fmu_serialize_state(fmu_t *f, void *state, unsigned char **bytes, size_t *size)
+{
+    *bytes = NULL;
+    *size = 0;
+    size_t n = 0;
+    status_t st = finish(f, FMU_CALL_STATE_SIZE, "", f->api.state_size(f->inst, state, &n));
+    if (st >= STATUS_ERROR) {
+        return st;
+    }
+    unsigned char *b = malloc(n > 0 ? n : 1);
+    if (b == NULL) {
+        return log_msg(&f->log, STATUS_FATAL, CAT, "%s: out of memory for the serialized state (%zu bytes)", f->label,
+                       n);
+    }
+    char args[64];
+    snprintf(args, sizeof args, "size=%zu", n);
+    st = status_worst(st, finish(f, FMU_CALL_SERIALIZE, args, f->api.serialize(f->inst, state, (fmi2Byte *)b, n)));
+    if (st >= STATUS_ERROR) {
+        free(b);
+        return st;
+    }
+    *bytes = b;
+    *size = n;
+    return st;
+}
+
+status_t fmu_deserialize_state(fmu_t *f, const unsigned char *bytes, size_t size, void **state)
+{
+    fmi2FMUstate s = NULL;
+    char args[64];
+    snprintf(args, sizeof args, "size=%zu", size);
+    status_t st = finish(f, FMU_CALL_DESERIALIZE, args, f->api.deserialize(f->inst, (const fmi2Byte *)bytes, size, &s));
+    *state = s;
+    return st;
+}
+
+void fmu_library_path(const fmu_t *f, char *buf, size_t n)
+{
+    snprintf(buf, n, "%s/binaries/linux64/%s.so", f->dir, f->identifier);
 }
 
 void fmu_free(fmu_t *f)

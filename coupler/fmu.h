@@ -45,6 +45,9 @@ enum {
     FMU_CALL_GET_STATE,
     FMU_CALL_SET_STATE,
     FMU_CALL_FREE_STATE,
+    FMU_CALL_STATE_SIZE,
+    FMU_CALL_SERIALIZE,
+    FMU_CALL_DESERIALIZE,
     FMU_CALL_TERMINATE,
     FMU_CALL_FREE_INSTANCE,
     FMU_NCALLS
@@ -80,6 +83,13 @@ status_t fmu_do_step(fmu_t *f, double t, double h);
 status_t fmu_get_state(fmu_t *f, void **state);
 status_t fmu_set_state(fmu_t *f, void *state);
 status_t fmu_free_state(fmu_t *f, void **state);
+/* A state as bytes (fmi2SerializedFMUstateSize + fmi2SerializeFMUstate;
+ * *bytes is malloc'ed, the caller frees it), and back into a new state
+ * (fmi2DeSerializeFMUstate) for fmu_set_state, freed by fmu_free_state. */
+status_t fmu_serialize_state(fmu_t *f, void *state, unsigned char **bytes, size_t *size);
+status_t fmu_deserialize_state(fmu_t *f, const unsigned char *bytes, size_t size, void **state);
+/* The path of the FMU's shared library (binaries/linux64/ID.so). */
+void fmu_library_path(const fmu_t *f, char *buf, size_t n);
 
 long fmu_calls(const fmu_t *f, int which);
 long fmu_calls_total(const fmu_t *f);

@@ -2,21 +2,25 @@
  *
  *   coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]
  *                 [--exchange-every K] [--log-fmi-calls FILE] [--fluid-fmu F] [--rigid-fmu F]
+ *                 [--checkpoint-every T] [--restart CHECKPOINT]
  *   coupler check SCENE.yaml [--set KEY=VALUE]...
  *   coupler bench [--size N]... [--json]
  *   coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...
  *
  * Only this file decides exit codes: 0 success, 1 a failed run or invalid
- * scene, 2 a usage error. Messages go to stderr through the log sink. */
+ * scene, 2 a usage error, 130 / 143 a run stopped by SIGINT / SIGTERM after
+ * writing its checkpoint. Messages go to stderr through the log sink. */
 #include "../common/coupling.h"
 #include "../common/scene.h"
 #include "../fluid/units.h"
 #include "bench.h"
 #include "export.h"
+#include "resources.h"
 #include "run.h"
 
 #include <errno.h>
 #include <limits.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -33,10 +37,24 @@ static int usage(const char *msg)
     fprintf(stderr, "usage:\n"
                     "  coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]\n"
                     "                [--exchange-every K] [--log-fmi-calls FILE] [--fluid-fmu F] [--rigid-fmu F]\n"
+                    "                [--checkpoint-every T] [--restart CHECKPOINT]\n"
                     "  coupler check SCENE.yaml [--set KEY=VALUE]...\n"
                     "  coupler bench [--size N]... [--json]\n"
                     "  coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...\n");
     return 2;
+}
+
+static int parse_seconds(const char *opt, const char *s, double *out)
+{
+    char *end;
+    errno = 0;
+    const double v = strtod(s, &end);
+    if (errno != 0 || end == s || *end != '\0' || !(v > 0.0) || !isfinite(v)) {
+        fprintf(stderr, "coupler: %s takes a simulated time > 0 in s, got '%s'\n", opt, s);
+        return 0;
+    }
+    *out = v;
+    return 1;
 }
 
 static int parse_long(const char *opt, const char *s, long lo, long hi, long *out)
@@ -105,6 +123,15 @@ static int cmd_check(const scene_t *s, const log_t *log)
     }
     printf("  steps              %ld to t = %.6g s\n", a.steps, s->run.end_time);
     printf("  memory             %.4g MB (%.0f bytes per cell)\n", a.bytes / 1e6, units_bytes_per_cell());
+    resources_need_t need;
+    if (resources_need(s, (double)a.steps * u.dt, 0, log, &need) == STATUS_OK) {
+        printf("  run needs          %.4g MB of memory; %.4g MB on disk (output %.4g MB, field snapshots %.4g MB), "
+               "a checkpoint %.4g MB more\n",
+               need.memory / 1e6, need.disk / 1e6, need.output / 1e6, need.fields / 1e6,
+               (need.grid_cells * units_bytes_per_cell() + need.output) / 1e6);
+        /* the default output goes to the current folder */
+        a.nwarnings += resources_compare(&need, ".", STATUS_WARNING, log);
+    }
     printf("  warnings           %d\n", a.nwarnings);
     return 0;
 }
@@ -162,11 +189,11 @@ int main(int argc, char **argv)
         return usage(NULL);
     }
     const char *scene_path = NULL, *output = NULL, *export_dir = NULL;
-    const char *log_calls = NULL, *fluid_fmu = NULL, *rigid_fmu = NULL;
+    const char *log_calls = NULL, *fluid_fmu = NULL, *rigid_fmu = NULL, *restart = NULL;
     const char *sets[MAX_SETS];
     int nsets = 0, quiet = 0;
     long steps = 0, every = 1;
-    double checkpoint = 0.0;
+    double checkpoint = 0.0, checkpoint_every = 0.0;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
         const int has_value = i + 1 < argc;
@@ -193,13 +220,15 @@ int main(int argc, char **argv)
             rigid_fmu = argv[++i];
         } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--checkpoint-test") == 0 && has_value) {
             /* hidden: save the FMU states at T1, run, restore, run again, compare */
-            char *end;
-            errno = 0;
-            checkpoint = strtod(argv[++i], &end);
-            if (errno != 0 || end == argv[i] || *end != '\0' || !(checkpoint > 0.0)) {
-                fprintf(stderr, "coupler: --checkpoint-test takes a time > 0 in s, got '%s'\n", argv[i]);
+            if (!parse_seconds("--checkpoint-test", argv[++i], &checkpoint)) {
                 return 2;
             }
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--checkpoint-every") == 0 && has_value) {
+            if (!parse_seconds("--checkpoint-every", argv[++i], &checkpoint_every)) {
+                return 2;
+            }
+        } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--restart") == 0 && has_value) {
+            restart = argv[++i];
         } else if (strcmp(cmd, "export") == 0 && strcmp(a, "-d") == 0 && has_value) {
             export_dir = argv[++i];
         } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--quiet") == 0) {
@@ -213,6 +242,9 @@ int main(int argc, char **argv)
     }
     if (scene_path == NULL) {
         return usage("a scene file is required");
+    }
+    if (restart != NULL && checkpoint > 0.0) {
+        return usage("--restart and --checkpoint-test do not go together");
     }
     if (strcmp(cmd, "export") == 0 && export_dir == NULL) {
         return usage("export needs -d DIR, the folder for fluid.fmu and rigid.fmu");
@@ -242,7 +274,8 @@ int main(int argc, char **argv)
         }
         char lib_dir[4096];
         fmu_lib_dir(lib_dir, sizeof lib_dir);
-        run_options_t opt = {output, steps, quiet, (int)every, log_calls, fluid_fmu, rigid_fmu, lib_dir, checkpoint};
+        run_options_t opt = {output,    steps,     quiet,   (int)every, log_calls,       fluid_fmu,
+                             rigid_fmu, lib_dir,   checkpoint, checkpoint_every, restart};
         rc = run_scene(scene, &opt, &log);
     }
     scene_free(scene);

@@ -187,13 +187,50 @@ static status_t write_pairs(output_t *o, const int *pairs, int nc)
     return st;
 }
 
-status_t output_open(const char *path, const scene_t *scene, const units_t *u, const output_layout_t *layout,
-                     const log_t *log, output_t **out)
+/* The time series of the layout: which group needs it and the row shape. */
+enum { G_ALL, G_SPHERES, G_CONNECTIONS, G_BODIES };
+enum { D_NONE, D_3, D_NS, D_NC };
+static const struct {
+    const char *name, *unit;
+    int group, is_int, a, b;
+} SERIES[NSERIES] = {
+    [S_TIME] = {"/time", "s", G_ALL, 0, D_NONE, D_NONE},
+    [S_MASS] = {"/fluid/mass", "kg", G_ALL, 0, D_NONE, D_NONE},
+    [S_MOMENTUM] = {"/fluid/momentum", "kg m/s", G_ALL, 0, D_3, D_NONE},
+    [S_ENERGY] = {"/fluid/kinetic_energy", "J", G_ALL, 0, D_NONE, D_NONE},
+    [S_POSITION] = {"/spheres/position", "m", G_SPHERES, 0, D_NS, D_3},
+    [S_VELOCITY] = {"/spheres/velocity", "m/s", G_SPHERES, 0, D_NS, D_3},
+    [S_OMEGA] = {"/spheres/angular_velocity", "rad/s", G_SPHERES, 0, D_NS, D_3},
+    [S_FORCE] = {"/spheres/force", "N", G_SPHERES, 0, D_NS, D_3},
+    [S_TORQUE] = {"/spheres/torque", "N m", G_SPHERES, 0, D_NS, D_3},
+    [S_BODY] = {"/spheres/body", "body id", G_SPHERES, 1, D_NS, D_NONE},
+    [S_CONN_FORCE] = {"/connections/force", "N", G_CONNECTIONS, 0, D_NC, D_3},
+    [S_CONN_TORQUE] = {"/connections/torque", "N m", G_CONNECTIONS, 0, D_NC, D_3},
+    [S_CONN_INTACT] = {"/connections/intact", "1 intact, 0 broken", G_CONNECTIONS, 1, D_NC, D_NONE},
+    [S_NBODIES] = {"/bodies/count", "bodies", G_BODIES, 1, D_NONE, D_NONE},
+    [S_BODY_MOMENTUM] = {"/bodies/momentum", "kg m/s", G_BODIES, 0, D_3, D_NONE},
+    [S_BODY_ANGMOM] = {"/bodies/angular_momentum", "kg m^2/s", G_BODIES, 0, D_3, D_NONE},
+};
+
+static int series_present(const output_t *o, int k)
+{
+    const int g = SERIES[k].group;
+    return g == G_ALL || (g == G_SPHERES && o->ns > 0) || (g == G_CONNECTIONS && o->nc > 0) ||
+           (g == G_BODIES && o->bodies);
+}
+
+static hsize_t series_dim(const output_t *o, int d)
+{
+    return d == D_3 ? 3 : d == D_NS ? (hsize_t)o->ns : d == D_NC ? (hsize_t)o->nc : 0;
+}
+
+/* The output_t without a file yet. */
+static status_t output_new(const char *path, const output_layout_t *layout, const log_t *log, output_t **out)
 {
     *out = NULL;
     output_t *o = calloc(1, sizeof *o);
     if (o == NULL) {
-        return log_msg(log, STATUS_FATAL, "output", "out of memory");
+        return log_msg(log, STATUS_FATAL, "output", "out of memory for the output writer (%zu bytes)", sizeof *o);
     }
     if (log != NULL) {
         o->log = *log;
@@ -207,9 +244,21 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
     o->bodies = layout->bodies;
     if ((o->path = strdup(path)) == NULL) {
         output_close(o);
-        return log_msg(log, STATUS_FATAL, "output", "out of memory");
+        return log_msg(log, STATUS_FATAL, "output", "out of memory for the output path (%zu bytes)", strlen(path) + 1);
     }
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL); /* errors are reported by us */
+    *out = o;
+    return STATUS_OK;
+}
+
+status_t output_open(const char *path, const scene_t *scene, const units_t *u, const output_layout_t *layout,
+                     const log_t *log, output_t **out)
+{
+    output_t *o;
+    status_t st = output_new(path, layout, log, &o);
+    if (st != STATUS_OK) {
+        return st;
+    }
     o->file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (o->file < 0) {
         log_msg(log, STATUS_ERROR, "output", "%s: cannot create the output file (does the folder exist and is it writable?)",
@@ -218,7 +267,7 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
         return STATUS_ERROR;
     }
     const double grid[3] = {u->n[0], u->n[1], u->n[2]}, ranks = 1.0;
-    status_t st = attr_string(o, o->file, "scene", scene->text ? scene->text : "");
+    st = attr_string(o, o->file, "scene", scene->text ? scene->text : "");
     st = status_worst(st, attr_string(o, o->file, "scene_file", scene->path ? scene->path : ""));
     st = status_worst(st, attr_string(o, o->file, "version", VERSION));
     st = status_worst(st, attr_string(o, o->file, "integrator",
@@ -228,35 +277,16 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
     st = status_worst(st, attr_doubles(o, o->file, "tau", &u->tau, 1));
     st = status_worst(st, attr_doubles(o, o->file, "grid", grid, 3));
     st = status_worst(st, attr_doubles(o, o->file, "ranks", &ranks, 1));
-    series_t *s = o->s;
-    const hsize_t ns = (hsize_t)o->ns, nc = (hsize_t)o->nc;
-    st = status_worst(st, series_create(o, &s[S_TIME], "/time", H5T_NATIVE_DOUBLE, 0, 0, "s"));
-    st = status_worst(st, series_create(o, &s[S_MASS], "/fluid/mass", H5T_NATIVE_DOUBLE, 0, 0, "kg"));
-    st = status_worst(st, series_create(o, &s[S_MOMENTUM], "/fluid/momentum", H5T_NATIVE_DOUBLE, 3, 0, "kg m/s"));
-    st = status_worst(st, series_create(o, &s[S_ENERGY], "/fluid/kinetic_energy", H5T_NATIVE_DOUBLE, 0, 0, "J"));
-    if (ns > 0) {
-        st = status_worst(st, series_create(o, &s[S_POSITION], "/spheres/position", H5T_NATIVE_DOUBLE, ns, 3, "m"));
-        st = status_worst(st, series_create(o, &s[S_VELOCITY], "/spheres/velocity", H5T_NATIVE_DOUBLE, ns, 3, "m/s"));
-        st = status_worst(st, series_create(o, &s[S_OMEGA], "/spheres/angular_velocity", H5T_NATIVE_DOUBLE, ns, 3,
-                                            "rad/s"));
-        st = status_worst(st, series_create(o, &s[S_FORCE], "/spheres/force", H5T_NATIVE_DOUBLE, ns, 3, "N"));
-        st = status_worst(st, series_create(o, &s[S_TORQUE], "/spheres/torque", H5T_NATIVE_DOUBLE, ns, 3, "N m"));
-        st = status_worst(st, series_create(o, &s[S_BODY], "/spheres/body", H5T_NATIVE_INT, ns, 0, "body id"));
-    }
-    if (nc > 0) {
+    if (o->nc > 0) {
         st = status_worst(st, write_pairs(o, layout->pairs, o->nc));
-        st = status_worst(st, series_create(o, &s[S_CONN_FORCE], "/connections/force", H5T_NATIVE_DOUBLE, nc, 3, "N"));
-        st = status_worst(st, series_create(o, &s[S_CONN_TORQUE], "/connections/torque", H5T_NATIVE_DOUBLE, nc, 3,
-                                            "N m"));
-        st = status_worst(st, series_create(o, &s[S_CONN_INTACT], "/connections/intact", H5T_NATIVE_INT, nc, 0,
-                                            "1 intact, 0 broken"));
     }
-    if (o->bodies) {
-        st = status_worst(st, series_create(o, &s[S_NBODIES], "/bodies/count", H5T_NATIVE_INT, 0, 0, "bodies"));
-        st = status_worst(st, series_create(o, &s[S_BODY_MOMENTUM], "/bodies/momentum", H5T_NATIVE_DOUBLE, 3, 0,
-                                            "kg m/s"));
-        st = status_worst(st, series_create(o, &s[S_BODY_ANGMOM], "/bodies/angular_momentum", H5T_NATIVE_DOUBLE, 3,
-                                            0, "kg m^2/s"));
+    for (int k = 0; k < NSERIES; k++) {
+        if (series_present(o, k)) {
+            st = status_worst(st, series_create(o, &o->s[k], SERIES[k].name,
+                                                SERIES[k].is_int ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE,
+                                                series_dim(o, SERIES[k].a), series_dim(o, SERIES[k].b),
+                                                SERIES[k].unit));
+        }
     }
     if (layout->fields_file != NULL &&
         H5Lcreate_external(layout->fields_file, "/fields", o->file, "/fields", H5P_DEFAULT, H5P_DEFAULT) < 0) {
@@ -271,6 +301,112 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
     }
     *out = o;
     return STATUS_OK;
+}
+
+status_t output_save_rows(output_t *o, const char *path, const char *prefix)
+{
+    if (H5Fflush(o->file, H5F_SCOPE_GLOBAL) < 0) {
+        return fail(o, "the file (flushing)");
+    }
+    hid_t dst = H5Fopen(path, H5F_ACC_RDWR, H5P_DEFAULT);
+    hid_t lcpl = H5Pcreate(H5P_LINK_CREATE);
+    status_t st = STATUS_OK;
+    if (dst < 0 || lcpl < 0 || H5Pset_create_intermediate_group(lcpl, 1) < 0) {
+        st = log_msg(&o->log, STATUS_ERROR, "output", "%s: cannot open it to copy the output rows into it", path);
+    }
+    for (int k = 0; k < NSERIES && st == STATUS_OK; k++) {
+        char name[256];
+        snprintf(name, sizeof name, "%s%s", prefix, SERIES[k].name);
+        if (o->s[k].id >= 0 && H5Ocopy(o->file, SERIES[k].name, dst, name, H5P_DEFAULT, lcpl) < 0) {
+            st = log_msg(&o->log, STATUS_ERROR, "output", "%s: HDF5 error while copying %s of %s into it", path,
+                         SERIES[k].name, o->path);
+        }
+    }
+    if (lcpl >= 0) {
+        H5Pclose(lcpl);
+    }
+    if (dst >= 0 && H5Fclose(dst) < 0 && st == STATUS_OK) {
+        st = log_msg(&o->log, STATUS_ERROR, "output", "%s: HDF5 error while closing it", path);
+    }
+    return st;
+}
+
+status_t output_restore_rows(output_t *o, const char *path, const char *prefix, long rows)
+{
+    hid_t src = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (src < 0) {
+        return log_msg(&o->log, STATUS_ERROR, "output", "%s: cannot open it to read the output rows", path);
+    }
+    status_t st = STATUS_OK;
+    for (int k = 0; k < NSERIES && st == STATUS_OK; k++) {
+        series_t *s = &o->s[k];
+        if (s->id < 0) {
+            continue;
+        }
+        char name[256];
+        snprintf(name, sizeof name, "%s%s", prefix, SERIES[k].name);
+        hid_t d = H5Lexists(src, prefix, H5P_DEFAULT) > 0 && H5Lexists(src, name, H5P_DEFAULT) > 0
+                      ? H5Dopen2(src, name, H5P_DEFAULT)
+                      : -1;
+        hid_t space = d >= 0 ? H5Dget_space(d) : -1;
+        hsize_t dims[3] = {0, 0, 0};
+        const int rank = space >= 0 ? H5Sget_simple_extent_ndims(space) : -1;
+        if (rank == s->rank) {
+            H5Sget_simple_extent_dims(space, dims, NULL);
+        }
+        const hsize_t per_row = (s->dims[1] > 0 ? s->dims[1] : 1) * (s->dims[2] > 0 ? s->dims[2] : 1);
+        const size_t elem = SERIES[k].is_int ? sizeof(int) : sizeof(double);
+        void *buf = NULL;
+        if (rank != s->rank || dims[0] < (hsize_t)rows || (rank > 1 && dims[1] != s->dims[1]) ||
+            (rank > 2 && dims[2] != s->dims[2])) {
+            st = log_msg(&o->log, STATUS_ERROR, "output",
+                         "%s: %s is missing, of another shape or shorter than the %ld rows it counts", path, name, rows);
+        } else if (rows > 0 && (buf = malloc((size_t)rows * per_row * elem)) == NULL) {
+            st = log_msg(&o->log, STATUS_FATAL, "output", "out of memory for %ld rows of %s (%zu bytes)", rows,
+                         SERIES[k].name, (size_t)rows * (size_t)per_row * elem);
+        } else if (rows > 0) {
+            hsize_t ext[3] = {(hsize_t)rows, s->dims[1], s->dims[2]}, start[3] = {0, 0, 0};
+            hid_t fs = H5Dget_space(d), ms = H5Screate_simple(s->rank, ext, NULL), out_fs = -1;
+            const int ok = fs >= 0 && ms >= 0 && H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, ext, NULL) >= 0 &&
+                           H5Dread(d, s->type, ms, fs, H5P_DEFAULT, buf) >= 0 && H5Dset_extent(s->id, ext) >= 0 &&
+                           (out_fs = H5Dget_space(s->id)) >= 0 &&
+                           H5Dwrite(s->id, s->type, ms, out_fs, H5P_DEFAULT, buf) >= 0;
+            if (!ok) {
+                st = fail(o, SERIES[k].name);
+            }
+            if (out_fs >= 0) {
+                H5Sclose(out_fs);
+            }
+            if (ms >= 0) {
+                H5Sclose(ms);
+            }
+            if (fs >= 0) {
+                H5Sclose(fs);
+            }
+        }
+        free(buf);
+        if (space >= 0) {
+            H5Sclose(space);
+        }
+        if (d >= 0) {
+            H5Dclose(d);
+        }
+    }
+    H5Fclose(src);
+    if (st == STATUS_OK) {
+        o->rows = (hsize_t)rows;
+        if (H5Fflush(o->file, H5F_SCOPE_GLOBAL) < 0) {
+            st = fail(o, "the file (flushing)");
+        }
+    }
+    return st;
+}
+
+long output_rows(const output_t *o) { return (long)o->rows; }
+
+status_t output_flush(output_t *o)
+{
+    return H5Fflush(o->file, H5F_SCOPE_GLOBAL) < 0 ? fail(o, "the file (flushing)") : STATUS_OK;
 }
 
 status_t output_row(output_t *o, const output_row_t *r)

@@ -53,6 +53,16 @@ typedef struct {
 status_t output_open(const char *path, const scene_t *scene, const units_t *units, const output_layout_t *layout,
                      const log_t *log, output_t **out);
 status_t output_row(output_t *o, const output_row_t *row);
+long output_rows(const output_t *o);
+/* Copies every time series as written so far into the HDF5 file at path
+ * (closed; opened and closed here), under prefix ("/output"): a checkpoint
+ * keeps its own copy of the rows, so that a run killed while writing its
+ * output loses nothing. */
+status_t output_save_rows(output_t *o, const char *path, const char *prefix);
+/* Fills a new output (output_open) with the first `rows` rows of the series
+ * saved under prefix in the file at path. */
+status_t output_restore_rows(output_t *o, const char *path, const char *prefix, long rows);
+status_t output_flush(output_t *o);
 /* Root attributes (wall times, results, FMI call counts). */
 status_t output_attr(output_t *o, const char *name, double value);
 status_t output_attr_string(output_t *o, const char *name, const char *value);

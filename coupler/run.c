@@ -24,14 +24,18 @@
 
 #include "../common/fmi_adapter.h"
 #include "../fluid/units.h"
+#include "checkpoint.h"
 #include "export.h"
 #include "fmu.h"
 #include "output.h"
+#include "resources.h"
+#include "summary.h"
 
 #include <errno.h>
 #include <ftw.h>
 #include <math.h>
 #include <omp.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -76,7 +80,25 @@ typedef struct {
     /* settling summary: the velocity along gravity of the one free sphere */
     double *settle_t, *settle_v;
     long nsettle;
+    /* checkpoints: what they belong to, where they go */
+    checkpoint_origin_t origin;
+    char cp_path[4200];
 } master_t;
+
+/* The signal that asked the run to stop (SIGINT, SIGTERM), 0 for none. The
+ * one process-wide variable of the master: a signal handler can reach no
+ * other. A second signal while the first is handled ends the process at once. */
+static volatile sig_atomic_t stop_signal = 0;
+
+static void on_signal(int sig)
+{
+    if (stop_signal != 0) {
+        signal(sig, SIG_DFL);
+        raise(sig);
+        return;
+    }
+    stop_signal = sig;
+}
 
 /* ------------------------------------------------------------------------ */
 /* Setup helpers                                                             */
@@ -382,170 +404,13 @@ static status_t cosim_step(master_t *m, double t, double h)
 /* ------------------------------------------------------------------------ */
 /* Summary                                                                   */
 
-/* Hasimoto (1959) drag factor of a simple cubic array, a = radius, L = period. */
-static double hasimoto(double a_over_l)
-{
-    const double x = a_over_l;
-    return 1.0 / (1.0 - 2.837 * x + 4.19 * x * x * x - 27.4 * pow(x, 6.0));
-}
-
-/* The one free body made of one sphere under gravity: index of the sphere, or -1. */
-static int settling_sphere(const scene_t *s)
-{
-    int found = -1, nfree = 0;
-    for (int b = 0, i = 0; b < s->nbodies; b++) {
-        if (s->bodies[b].motion == MOTION_FREE) {
-            nfree++;
-            found = s->bodies[b].nspheres == 1 ? i : -2;
-        }
-        i += s->bodies[b].nspheres;
-    }
-    const double g = hypot(hypot(s->rigid.gravity[0], s->rigid.gravity[1]), s->rigid.gravity[2]);
-    return nfree == 1 && found >= 0 && g > 0.0 ? found : -1;
-}
-
-static void settling_summary(master_t *m, double t_end)
-{
-    const scene_t *s = m->scene;
-    const int i = settling_sphere(s);
-    if (i < 0 || m->nsettle == 0) {
-        return;
-    }
-    const scene_body_t *body = NULL;
-    for (int b = 0, k = 0; b < s->nbodies && body == NULL; b++) {
-        body = k == i ? &s->bodies[b] : NULL;
-        k += s->bodies[b].nspheres;
-    }
-    const double a = body->spheres[0].radius, rho_f = s->fluid.density, mu = rho_f * s->fluid.viscosity;
-    const double g = hypot(hypot(s->rigid.gravity[0], s->rigid.gravity[1]), s->rigid.gravity[2]);
-    const double stokes = 2.0 * g * a * a * (body->density - rho_f) / (9.0 * mu); /* the paper's Eq. 10 */
-    double sum = 0.0;
-    long n = 0;
-    for (long k = 0; k < m->nsettle; k++) {
-        if (m->settle_t[k] >= 0.8 * t_end - 1e-12 * t_end) {
-            sum += m->settle_v[k];
-            n++;
-        }
-    }
-    const double v = n > 0 ? sum / n : 0.0;
-    printf("  settling: terminal velocity %.4g m/s (mean over the last 20%% of the run, %ld rows), "
-           "Stokes (Eq. 10) %.4g m/s, Re = %.3g\n",
-           v, n, stokes, v * 2.0 * a / s->fluid.viscosity);
-    int free_slip = 1;
-    double lmin = INFINITY;
-    for (int f = 0; f < 6; f++) {
-        free_slip &= s->domain.faces[f].type == FACE_FREE_SLIP;
-        lmin = fmin(lmin, s->domain.size[f / 2]);
-    }
-    if (free_slip) {
-        /* A free-slip wall is a mirror: for a sphere in the middle of a box
-         * of side L its images in the side walls form a square array of
-         * period L. The wall-corrected estimate treats the whole image system
-         * as a simple cubic array of period L: Hasimoto (1959), dilute
-         * periodic array of spheres, v = v_Stokes / K(a/L). */
-        const double k = hasimoto(a / lmin);
-        printf("  wall-corrected estimate %.4g m/s (free-slip walls as mirror images, a periodic array of period "
-               "L = %.4g m: Hasimoto 1959 K = %.4f for a/L = %.4g); measured / corrected = %.4f\n",
-               stokes / k, lmin, k, a / lmin, v / (stokes / k));
-    }
-}
-
-static void poiseuille_summary(const scene_t *s, const units_t *un, const double peak[3])
-{
-    int wall = -1, nwalls = 0, along = -1;
-    for (int a = 0; a < 3; a++) {
-        if (s->domain.faces[2 * a].type == FACE_NO_SLIP && s->domain.faces[2 * a + 1].type == FACE_NO_SLIP) {
-            wall = a;
-            nwalls++;
-        } else if (s->domain.faces[2 * a].type != FACE_PERIODIC) {
-            return;
-        }
-        if (s->fluid.body_force[a] != 0.0) {
-            along = along < 0 ? a : 3;
-        }
-    }
-    if (nwalls != 1 || along < 0 || along == 3 || along == wall || s->nbodies > 0) {
-        return;
-    }
-    const double h = s->domain.size[wall], mu = s->fluid.viscosity * s->fluid.density, dx = un->dx;
-    /* the analytic profile F/(2 mu) y (h - y) at the cell centre nearest the middle */
-    const double y = (un->n[wall] / 2 + 0.5) * dx;
-    const double ref = s->fluid.body_force[along] / (2.0 * mu) * y * (h - y);
-    printf("  plane Poiseuille check: peak velocity %.6g m/s, analytic %.6g m/s at the same cell centre "
-           "(relative difference %.2e)\n",
-           peak[along], ref, peak[along] / ref - 1.0);
-}
-
-static void calls_json(const fmu_t *f, char *buf, size_t n)
-{
-    size_t k = (size_t)snprintf(buf, n, "{");
-    for (int c = 0; c < FMU_NCALLS && k < n; c++) {
-        if (fmu_calls(f, c) > 0) {
-            k += (size_t)snprintf(buf + k, n - k, "%s\"%s\": %ld", k > 1 ? ", " : "", fmu_call_names[c],
-                                  fmu_calls(f, c));
-        }
-    }
-    if (k < n) {
-        snprintf(buf + k, n - k, "}");
-    }
-}
-
-/* Final velocity of every free body: the r^3-weighted mean of its spheres'
- * velocities (the centre-of-mass velocity of a rigid body of one density). */
-static void body_summary(const master_t *m)
-{
-    const scene_t *s = m->scene;
-    const int ns = m->ns;
-    for (int i = 0, b0 = 0, k0 = 0; i < ns; i++) {
-        /* the scene sphere i: is its body free? */
-        while (k0 + s->bodies[b0].nspheres <= i) {
-            k0 += s->bodies[b0].nspheres;
-            b0++;
-        }
-        int first = 1;
-        for (int j = 0; j < i; j++) {
-            first &= m->ibody[j] != m->ibody[i];
-        }
-        if (!first || s->bodies[b0].motion != MOTION_FREE) {
-            continue;
-        }
-        double v[3] = {0, 0, 0}, w = 0.0;
-        int count = 0;
-        for (int j = i, b = b0, k = k0; j < ns; j++) {
-            while (k + s->bodies[b].nspheres <= j) {
-                k += s->bodies[b].nspheres;
-                b++;
-            }
-            if (m->ibody[j] != m->ibody[i]) {
-                continue;
-            }
-            const double r3 = pow(s->bodies[b].spheres[j - k].radius, 3.0);
-            for (int a = 0; a < 3; a++) {
-                v[a] += r3 * m->row[R_VEL * 3 * ns + 3 * j + a];
-            }
-            w += r3;
-            count++;
-        }
-        printf("  body %d (%d sphere%s from sphere %d): final velocity (%.6g, %.6g, %.6g) m/s\n", m->ibody[i], count,
-               count > 1 ? "s" : "", i, v[0] / w, v[1] / w, v[2] / w);
-    }
-}
-
 /* ------------------------------------------------------------------------ */
 /* The run                                                                   */
 
 static status_t check_writable(const char *path, const log_t *log)
 {
     char dir[4096];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    if (slash == NULL) {
-        snprintf(dir, sizeof dir, ".");
-    } else if (slash == dir) {
-        dir[1] = '\0';
-    } else {
-        *slash = '\0';
-    }
+    resources_folder(path, dir, sizeof dir);
     if (access(dir, W_OK | X_OK) != 0) {
         return log_msg(log, STATUS_ERROR, CAT, "cannot write the output file %s: folder %s: %s", path, dir,
                        strerror(errno));
@@ -610,10 +475,11 @@ static status_t check_guid(master_t *m, fmu_t *f)
     return STATUS_OK;
 }
 
-static status_t init_fmus(master_t *m, double t_stop)
+/* resume: the field file of an interrupted run is continued (output.fields_resume). */
+static status_t init_fmus(master_t *m, double t_stop, int resume)
 {
     status_t st = fmu_instantiate(m->fluid, 0.0, t_stop);
-    const fmu_var_t *fields = fmu_find(m->fluid, "output.fields");
+    const fmu_var_t *fields = fmu_find(m->fluid, resume ? "output.fields_resume" : "output.fields");
     if (st < STATUS_ERROR && fields != NULL && m->fields[0] != '\0') {
         st = status_worst(st, fmu_set_string(m->fluid, fields->vr, m->fields));
     }
@@ -658,7 +524,111 @@ static void free_master(master_t *m)
     free(m->settle_v);
 }
 
-/* The checkpoint test: the states saved at step n1, the rows after it. */
+/* ------------------------------------------------------------------------ */
+/* Checkpoint and restart                                                    */
+
+/* What this run's checkpoints belong to: the coupler binary, each FMU's GUID
+ * and library. */
+static status_t find_origin(master_t *m)
+{
+    char exe[4096], lib[4400], hash[17];
+    const ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (len <= 0) {
+        return log_msg(&m->log, STATUS_ERROR, CAT, "cannot find the coupler executable (/proc/self/exe): %s",
+                       strerror(errno));
+    }
+    exe[len] = '\0';
+    if (checkpoint_file_hash(exe, &m->log, hash) != STATUS_OK) {
+        return STATUS_ERROR;
+    }
+    snprintf(m->origin.coupler, sizeof m->origin.coupler, "build %s", hash);
+    fmu_t *f[2] = {m->fluid, m->rigid};
+    char *dst[2] = {m->origin.fluid, m->origin.rigid};
+    for (int k = 0; k < 2; k++) {
+        if (f[k] == NULL) {
+            continue;
+        }
+        fmu_library_path(f[k], lib, sizeof lib);
+        if (checkpoint_file_hash(lib, &m->log, hash) != STATUS_OK) {
+            return STATUS_ERROR;
+        }
+        snprintf(dst[k], CHECKPOINT_ID_MAX, "GUID %s, library %s", fmu_guid(f[k]), hash);
+    }
+    return STATUS_OK;
+}
+
+/* The serialized state of one FMU. */
+static status_t serialize(fmu_t *f, unsigned char **bytes, size_t *size)
+{
+    void *state = NULL;
+    status_t st = fmu_get_state(f, &state);
+    if (st < STATUS_ERROR) {
+        st = status_worst(st, fmu_serialize_state(f, state, bytes, size));
+    }
+    if (state != NULL) {
+        st = status_worst(st, fmu_free_state(f, &state));
+    }
+    return st;
+}
+
+static status_t deserialize(fmu_t *f, const unsigned char *bytes, size_t size)
+{
+    void *state = NULL;
+    status_t st = fmu_deserialize_state(f, bytes, size, &state);
+    if (st < STATUS_ERROR) {
+        st = status_worst(st, fmu_set_state(f, state));
+    }
+    if (state != NULL) {
+        st = status_worst(st, fmu_free_state(f, &state));
+    }
+    return st;
+}
+
+/* Position of the run at a communication point, for a checkpoint. */
+typedef struct {
+    long n, nsteps, next_out;
+    int k_lbm;
+    double h, wall0, wall_before[3];
+} run_point_t;
+
+static status_t copy_rows(void *out, const char *tmp_path)
+{
+    return output_save_rows(out, tmp_path, "/output");
+}
+
+static status_t save_checkpoint(master_t *m, output_t *out, const run_point_t *p)
+{
+    checkpoint_t c;
+    memset(&c, 0, sizeof c);
+    status_t st = output_flush(out);
+    if (st < STATUS_ERROR) {
+        st = status_worst(st, serialize(m->fluid, &c.fluid_state, &c.fluid_size));
+    }
+    if (st < STATUS_ERROR && m->rigid != NULL) {
+        st = status_worst(st, serialize(m->rigid, &c.rigid_state, &c.rigid_size));
+    }
+    if (st < STATUS_ERROR) {
+        c.step = p->n;
+        c.nsteps = p->nsteps;
+        c.rows = output_rows(out);
+        c.next_out = p->next_out;
+        c.exchange_every = p->k_lbm;
+        c.h = p->h;
+        c.settle_t = m->settle_t;
+        c.settle_v = m->settle_v;
+        c.nsettle = m->nsettle;
+        c.wall[0] = p->wall_before[0] + fmu_step_seconds(m->fluid);
+        c.wall[1] = p->wall_before[1] + (m->rigid != NULL ? fmu_step_seconds(m->rigid) : 0.0);
+        c.wall[2] = p->wall_before[2] + omp_get_wtime() - p->wall0;
+        st = status_worst(st, checkpoint_write(m->cp_path, m->scene, &m->origin, &c, copy_rows, out, &m->log));
+    }
+    free(c.fluid_state);
+    free(c.rigid_state);
+    return st;
+}
+
+/* The checkpoint test (--checkpoint-test): the states saved at step n1, the
+ * rows after it, compared with the rows of the run restored to n1. */
 typedef struct {
     long n1;
     void *fluid_state, *rigid_state;
@@ -666,9 +636,9 @@ typedef struct {
     long nrows, cap;
     int replay;
     long mismatches;
-} checkpoint_t;
+} replay_t;
 
-static status_t checkpoint_record(master_t *m, checkpoint_t *c, long n)
+static status_t checkpoint_record(master_t *m, replay_t *c, long n)
 {
     const int width = m->nrow + m->ns + m->nc;
     const long k = n - c->n1;
@@ -711,11 +681,21 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     m.scene = scene;
     m.opt = opt;
     m.log = *log;
-    checkpoint_t cp = {0};
+    replay_t cp = {0};
+    checkpoint_t restart = {0};
     output_t *out = NULL;
     int rc = 1;
     status_t st;
     const double wall0 = omp_get_wtime();
+    /* SIGINT, SIGTERM: finish the step, write a checkpoint, stop (130, 143) */
+    struct sigaction sa, old_int, old_term;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sa.sa_flags = SA_RESTART;
+    sigemptyset(&sa.sa_mask);
+    stop_signal = 0;
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
     if (units_derive(scene, log, &m.un) != STATUS_OK) {
         goto done;
     }
@@ -728,9 +708,21 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     const double dt = scene->fluid.dt, h = k_lbm * dt;
     const long nsteps = opt->steps > 0 ? opt->steps : (long)ceil(scene->run.end_time / h - 1e-9);
     const double t_end = nsteps * h;
+    checkpoint_path(opt->output, m.cp_path, sizeof m.cp_path);
     if (opt->log_calls != NULL && (m.calls = fopen(opt->log_calls, "w")) == NULL) {
         log_msg(log, STATUS_ERROR, CAT, "cannot write the FMI call log %s: %s", opt->log_calls, strerror(errno));
         goto done;
+    }
+    /* 0: memory and disk are there (nothing allocated or written yet) */
+    {
+        resources_need_t need;
+        char folder[4096];
+        resources_folder(opt->output, folder, sizeof folder);
+        if (resources_need(scene, t_end, opt->checkpoint_every > 0.0, log, &need) != STATUS_OK ||
+            resources_compare(&need, folder, STATUS_ERROR, log) > 0) {
+            log_msg(log, STATUS_ERROR, CAT, "%s: not run, nothing written", scene->path);
+            goto done;
+        }
     }
     /* 1-3: FMUs, signals, scene, output folder; nothing written yet */
     if (load_fmus(&m) >= STATUS_ERROR) {
@@ -766,7 +758,28 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             goto done;
         }
     }
-    if (init_fmus(&m, t_end) >= STATUS_ERROR) {
+    if (find_origin(&m) != STATUS_OK) {
+        goto done;
+    }
+    if (opt->restart != NULL) {
+        /* the checkpoint must belong to this scene, these FMUs and this build */
+        if (checkpoint_read(opt->restart, scene, &m.origin, &restart, log) != STATUS_OK) {
+            goto done;
+        }
+        if (restart.exchange_every != k_lbm || restart.h != h) {
+            log_msg(log, STATUS_ERROR, CAT,
+                    "%s was written with --exchange-every %d (h = %.17g s); this run has --exchange-every %d (h = "
+                    "%.17g s): restart with the options of the interrupted run",
+                    opt->restart, restart.exchange_every, restart.h, k_lbm, h);
+            goto done;
+        }
+        if (restart.step > nsteps) {
+            log_msg(log, STATUS_ERROR, CAT, "%s is at communication step %ld, after the end of this run (%ld steps)",
+                    opt->restart, restart.step, nsteps);
+            goto done;
+        }
+    }
+    if (init_fmus(&m, t_end, opt->restart != NULL) >= STATUS_ERROR) {
         log_msg(log, STATUS_ERROR, CAT, "the FMUs could not be initialised (see above); nothing was run");
         goto done;
     }
@@ -782,12 +795,27 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     output_layout_t layout = {m.ns, m.nc, pairs, fields_rel, m.rigid != NULL};
     units_t shown = m.un;
     shown.dt = dt; /* the time base of the run (may differ from units_derive's dt in the last bit) */
+    /* a restart writes the output anew: the rows to the checkpoint from its copy */
     st = output_open(opt->output, scene, &shown, &layout, log, &out);
+    if (st < STATUS_ERROR && opt->restart != NULL) {
+        st = output_restore_rows(out, opt->restart, "/output", restart.rows);
+    }
     free(pairs);
     if (st >= STATUS_ERROR) {
         goto done;
     }
-    const int settle = settling_sphere(scene);
+    if (opt->restart != NULL) {
+        if (deserialize(m.fluid, restart.fluid_state, restart.fluid_size) >= STATUS_ERROR ||
+            (m.rigid != NULL && deserialize(m.rigid, restart.rigid_state, restart.rigid_size) >= STATUS_ERROR)) {
+            log_msg(log, STATUS_ERROR, CAT, "the FMU states of %s could not be restored (see above)", opt->restart);
+            goto done;
+        }
+        m.settle_t = restart.settle_t;
+        m.settle_v = restart.settle_v;
+        m.nsettle = restart.nsettle;
+        restart.settle_t = restart.settle_v = NULL;
+    }
+    const int settle = summary_settling_sphere(scene);
     double gdir[3] = {0, 0, 0};
     if (settle >= 0) {
         const double g = hypot(hypot(scene->rigid.gravity[0], scene->rigid.gravity[1]), scene->rigid.gravity[2]);
@@ -804,9 +832,13 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     /* the loop */
     const double oi = scene->run.output_interval, ncells = (double)m.un.n[0] * m.un.n[1] * m.un.n[2];
     const int tty = !opt->quiet && isatty(fileno(stderr));
-    long next_out = 0;
+    const long n0 = restart.step;
+    long next_out = restart.next_out;
+    const double every = opt->checkpoint_every;
+    long next_cp = every > 0.0 ? (long)floor(n0 * h / every + 1e-9 * dt / every) + 1 : 0;
+    run_point_t point = {0, nsteps, 0, k_lbm, h, wall0, {restart.wall[0], restart.wall[1], restart.wall[2]}};
     double last_print = wall0;
-    for (long n = 0;; n++) {
+    for (long n = n0;; n++) {
         const double t = n * h;
         const int last = n == nsteps;
         const int do_out = !cp.replay && (last || t >= next_out * oi - 1e-9 * dt);
@@ -857,6 +889,27 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             n = cp.n1 - 1;
             continue;
         }
+        const int cp_due = every > 0.0 && n > n0 && t >= next_cp * every - 1e-9 * dt;
+        if (!last && (cp_due || stop_signal != 0)) {
+            point.n = n;
+            point.next_out = next_out;
+            if (save_checkpoint(&m, out, &point) != STATUS_OK) {
+                goto stopped;
+            }
+            while (every > 0.0 && next_cp * every <= t + 1e-9 * dt) {
+                next_cp++;
+            }
+        }
+        if (!last && stop_signal != 0) {
+            const int sig = stop_signal;
+            log_msg(log, STATUS_WARNING, CAT,
+                    "stopped by %s at t = %.9g s (communication step %ld of %ld); %s holds the output rows to then; "
+                    "checkpoint %s: continue with `coupler run %s [the same --set options] --restart %s -o %s`",
+                    sig == SIGINT ? "SIGINT" : "SIGTERM", t, n, nsteps, opt->output, m.cp_path, scene->path,
+                    m.cp_path, opt->output);
+            rc = 128 + sig;
+            goto done;
+        }
         if (last) {
             break;
         }
@@ -866,21 +919,22 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         }
         const double w1 = omp_get_wtime();
         if (tty && (w1 - last_print > 0.5)) {
-            const double el = w1 - wall0, eta = el / (n + 1) * (nsteps - n - 1);
+            const double el = w1 - wall0, eta = el / (n + 1 - n0) * (nsteps - n - 1);
             fprintf(stderr, "\rstep %ld/%ld  t = %.4g s  wall %.1f s  ETA %.1f s  %.1f MLUPS   ", n + 1, nsteps,
-                    t + h, el, eta, ncells * k_lbm * (n + 1) / fmax(fmu_step_seconds(m.fluid), 1e-9) / 1e6);
+                    t + h, el, eta, ncells * k_lbm * (n + 1 - n0) / fmax(fmu_step_seconds(m.fluid), 1e-9) / 1e6);
             last_print = w1;
         }
     }
     if (tty) {
         fprintf(stderr, "\n");
     }
-    const double wall = omp_get_wtime() - wall0, wf = fmu_step_seconds(m.fluid);
-    const double wr = m.rigid != NULL ? fmu_step_seconds(m.rigid) : 0.0;
+    /* wall times of the whole run, the interrupted parts before a restart included */
+    const double wall = restart.wall[2] + omp_get_wtime() - wall0, wf = restart.wall[0] + fmu_step_seconds(m.fluid);
+    const double wr = restart.wall[1] + (m.rigid != NULL ? fmu_step_seconds(m.rigid) : 0.0);
     char jf[1024], jr[1024] = "{}";
-    calls_json(m.fluid, jf, sizeof jf);
+    summary_calls_json(m.fluid, jf, sizeof jf);
     if (m.rigid != NULL) {
-        calls_json(m.rigid, jr, sizeof jr);
+        summary_calls_json(m.rigid, jr, sizeof jr);
     }
     const long cf = fmu_calls_total(m.fluid), cr = m.rigid != NULL ? fmu_calls_total(m.rigid) : 0;
     const double mlups = ncells * k_lbm * (double)nsteps / fmax(wf, 1e-9) / 1e6;
@@ -911,9 +965,9 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     printf("\n");
     const double vmax = m.row[m.o_vmax];
     printf("  fluid: largest speed %.6g m/s (Mach %.3g)\n", vmax, vmax / units_velocity(&m.un) * sqrt(3.0));
-    body_summary(&m);
-    settling_summary(&m, t_end);
-    poiseuille_summary(scene, &m.un, &m.row[m.o_peak]);
+    summary_bodies(scene, m.ns, m.ibody, &m.row[R_VEL * 3 * m.ns]);
+    summary_settling(scene, m.settle_t, m.settle_v, m.nsettle, t_end);
+    summary_poiseuille(scene, &m.un, &m.row[m.o_peak]);
     if (cp.n1 >= 0) {
         printf("  checkpoint test: state saved at t1 = %.6g s, run to %.6g s, restored, run again: %s (%ld of %ld "
                "communication points differ)\n",
@@ -936,9 +990,12 @@ done:
         fmu_free_state(m.rigid, &cp.rigid_state);
     }
     free(cp.rows);
+    checkpoint_free(&restart);
     if (output_close(out) != STATUS_OK) {
         rc = 1;
     }
     free_master(&m);
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
     return rc;
 }

@@ -3,7 +3,10 @@
  * Loads the scene's FMUs (exported into a temporary folder, or given with
  * --fluid-fmu/--rigid-fmu), connects every input to the output of the
  * other FMU with the same name, steps them with the fixed-step sequential
- * scheme of DESIGN section 2 and writes the output file (output.h). */
+ * scheme of DESIGN section 2 and writes the output file (output.h). With
+ * --checkpoint-every T it writes the coupled state every T simulated
+ * seconds, and on SIGINT/SIGTERM, to a checkpoint from which --restart
+ * continues the run bit-identically (checkpoint.h). */
 #ifndef COUPLER_RUN_H
 #define COUPLER_RUN_H
 
@@ -19,9 +22,13 @@ typedef struct {
     const char *rigid_fmu;     /* NULL: export from the scene */
     const char *lib_dir;       /* build/fmu: the libraries export packs */
     double checkpoint_t1;      /* > 0: checkpoint test (save at t1, run, restore, run, compare) */
+    double checkpoint_every;   /* > 0: a checkpoint every this many simulated seconds */
+    const char *restart;       /* NULL, or the checkpoint to continue from (appending to output) */
 } run_options_t;
 
-/* Returns 0 on success, 1 on failure (messages already logged). */
+/* Returns 0 on success, 1 on failure (messages already logged), 128 + the
+ * signal number when SIGINT or SIGTERM stopped the run after writing a
+ * checkpoint (OUT_checkpoint.h5 beside the output, checkpoint.h). */
 int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log);
 
 #endif

@@ -10,7 +10,10 @@
  *               spheres of free bodies (the fluid moves fixed and prescribed
  *               spheres itself); start values are the scene's initial state
  *               output.fields (String, only when the scene sets run.fields):
- *               the HDF5 file for field snapshots, "" for none
+ *               the HDF5 file for field snapshots, "" for none;
+ *               output.fields_resume (String, likewise): the field file of an
+ *               interrupted run to continue (coupler run --restart): opened,
+ *               not truncated, its snapshots after the restored step dropped
  *   outputs     sphere[i].force|torque.x|y|z for every sphere: the
  *               hydrodynamic force and the torque about the sphere centre of
  *               the last LBM step (averaged when fluid.force_averaging is set)
@@ -58,6 +61,7 @@ enum {
     Q_ROTATIONAL_DRAG,
     Q_PARAMETER,
     Q_FIELDS_FILE,
+    Q_FIELDS_RESUME,
     Q_MASS,
     Q_MOMENTUM,
     Q_KINETIC_ENERGY,
@@ -176,6 +180,13 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
         v->what = Q_FIELDS_FILE;
         snprintf(v->description, sizeof v->description,
                  "HDF5 file for field snapshots every run.field_interval (\"\": none), .xmf beside it");
+        if ((v = fmi_vars_add(&vs, FMI_STRING, FMI_PARAMETER, NULL, "output.fields_resume")) == NULL) {
+            st = oom(log);
+            goto done;
+        }
+        v->what = Q_FIELDS_RESUME;
+        snprintf(v->description, sizeof v->description,
+                 "field file of an interrupted run to continue after a state restore (\"\": none)");
     }
     const int ns = scene_total_spheres(s);
     for (int i = 0; i < ns; i++) {
@@ -341,14 +352,19 @@ static status_t maybe_snapshot(fluid_fmi_t *m)
 static status_t fluid_fmi_set_string(void *comp, const fmi_var_t *var, const char *value, const log_t *log)
 {
     fluid_fmi_t *m = comp;
-    if (var->what != Q_FIELDS_FILE || value[0] == '\0') {
+    if ((var->what != Q_FIELDS_FILE && var->what != Q_FIELDS_RESUME) || value[0] == '\0') {
         return STATUS_OK;
     }
     h5fields_close(m->fields);
     m->fields = NULL;
     int n[3];
     fluid_cells(m->fl, n);
-    status_t st = h5fields_open(value, n, fluid_units(m->fl)->dx, log, &m->fields);
+    const double dx = fluid_units(m->fl)->dx;
+    if (var->what == Q_FIELDS_RESUME) {
+        /* the snapshots continue after the state restore (fluid_fmi_state_restore) */
+        return h5fields_resume(value, n, dx, log, &m->fields);
+    }
+    status_t st = h5fields_open(value, n, dx, log, &m->fields);
     if (st >= STATUS_ERROR) {
         return st;
     }
@@ -525,8 +541,9 @@ static status_t fluid_fmi_state_save(void *comp, void *buf, size_t size)
     return fluid_state_save(((fluid_fmi_t *)comp)->fl, buf, size);
 }
 
-/* After a restore, snapshots continue from the restored step (a snapshot
- * written again replaces the one of the same step). */
+/* After a restore, snapshots continue from the restored step: those of later
+ * steps (from the run that went on, or was killed, after the state was taken)
+ * are dropped. */
 static status_t fluid_fmi_state_restore(void *comp, const void *buf, size_t size)
 {
     fluid_fmi_t *m = comp;
@@ -535,6 +552,9 @@ static status_t fluid_fmi_state_restore(void *comp, const void *buf, size_t size
     m->next_field = 0;
     while (m->fields != NULL && m->next_field * m->scene->run.field_interval <= t + 1e-9 * dt) {
         m->next_field++;
+    }
+    if (st < STATUS_ERROR && m->fields != NULL) {
+        st = status_worst(st, h5fields_drop_after(m->fields, fluid_step_count(m->fl)));
     }
     return st;
 }

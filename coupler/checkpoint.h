@@ -1,0 +1,67 @@
+/* checkpoint.h — the restart file of `coupler run` (OUT_checkpoint.h5).
+ *
+ * A checkpoint holds the complete coupled state at a communication point:
+ * both FMUs' serialized states (fmi2SerializeFMUstate), the master's step
+ * counter and output position, a copy of every output row written so far
+ * (under /output: a run killed while writing its output file loses
+ * nothing), the settling-summary history, the wall time
+ * spent so far, and what it belongs to: the scene text (with its --set
+ * overrides applied), the FMUs' GUIDs and a hash of each binary (the
+ * coupler and both FMU libraries), so that a restart with another scene,
+ * other FMUs or another build is refused with what differs.
+ *
+ * It is written to PATH.tmp, flushed, fsync'ed and renamed over PATH (then
+ * the folder is fsync'ed): a valid checkpoint exists at every moment, even
+ * when the run is killed while writing the next one. hdf5.h appears only
+ * in the .c file. */
+#ifndef COUPLER_CHECKPOINT_H
+#define COUPLER_CHECKPOINT_H
+
+#include "../common/scene.h"
+#include "../common/status.h"
+
+#include <stddef.h>
+
+#define CHECKPOINT_ID_MAX 160
+
+/* What a checkpoint belongs to; every field must match on restart. */
+typedef struct {
+    char coupler[CHECKPOINT_ID_MAX];    /* hash of the coupler executable */
+    char fluid[CHECKPOINT_ID_MAX];      /* fluid FMU: GUID and library hash */
+    char rigid[CHECKPOINT_ID_MAX];      /* rigid FMU: GUID and library hash, "" without one */
+} checkpoint_origin_t;
+
+typedef struct {
+    long step;            /* communication steps done */
+    long nsteps;          /* the run's length in communication steps */
+    long rows;            /* output rows written */
+    long next_out;        /* the next output row is due at next_out * run.output_interval */
+    int exchange_every;   /* LBM steps per communication step */
+    double h;             /* communication step, s */
+    unsigned char *fluid_state, *rigid_state; /* serialized FMU states (rigid: NULL without one) */
+    size_t fluid_size, rigid_size;
+    double *settle_t, *settle_v; /* settling-summary history (may be NULL) */
+    long nsettle;
+    double wall[3];       /* wall time so far: fluid, rigid, whole run */
+} checkpoint_t;
+
+/* "OUT_checkpoint.h5" for the output "OUT.h5" (OUT without its .h5). */
+void checkpoint_path(const char *output, char *buf, size_t n);
+
+/* A 64-bit FNV-1a hash of a file's bytes, as 16 hex digits. */
+status_t checkpoint_file_hash(const char *path, const log_t *log, char out[17]);
+
+/* Writes the checkpoint; fill (may be NULL) adds to the closed temporary
+ * file before it is synced and renamed (the master copies the output rows). */
+typedef status_t (*checkpoint_fill_t)(void *ctx, const char *tmp_path);
+status_t checkpoint_write(const char *path, const scene_t *scene, const checkpoint_origin_t *origin,
+                          const checkpoint_t *c, checkpoint_fill_t fill, void *ctx, const log_t *log);
+
+/* Reads path into *c (arrays malloc'ed: checkpoint_free) after checking that
+ * it belongs to this scene and origin; a mismatch is an error saying what
+ * differs. */
+status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoint_origin_t *origin, checkpoint_t *c,
+                         const log_t *log);
+void checkpoint_free(checkpoint_t *c);
+
+#endif

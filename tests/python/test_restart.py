@@ -1,0 +1,178 @@
+"""Checkpoint and restart of `coupler run` (README "When a run fails").
+
+A run killed after a checkpoint (SIGKILL: nothing of the run's own clean-up
+happens) and continued with --restart in a new process must give the same
+output as the run that was never interrupted, bit for bit: every dataset of
+the output file and of the field file compared with zero tolerance. SIGINT
+and SIGTERM finish the step, write a checkpoint and exit with 130 / 143. A
+restart with another scene, other options or another build is refused with
+a message that says what differs."""
+import os
+import signal
+import subprocess
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import COUPLER, MODELS, run
+
+SCENE = MODELS / "sinking_sphere.yaml"
+STEPS = "700"
+EVERY = "0.002"  # 120 communication steps of 1/60000 s
+
+
+def start(*args):
+    env = dict(os.environ, OMP_NUM_THREADS="2")
+    return subprocess.Popen([str(COUPLER), *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env=env)
+
+
+def wait_for(path, proc, timeout=300):
+    t0 = time.time()
+    while not path.exists():
+        assert proc.poll() is None, "the run ended before writing a checkpoint: " + proc.stderr.read()
+        assert time.time() - t0 < timeout, f"no {path} after {timeout} s"
+        time.sleep(0.02)
+
+
+def datasets(path):
+    out = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset):
+                out[name] = obj[()]
+        f.visititems(visit)
+    return out
+
+
+def assert_identical(a, b):
+    da, db = datasets(a), datasets(b)
+    assert sorted(da) == sorted(db)
+    assert len(da) > 0
+    for name in da:
+        assert da[name].shape == db[name].shape, name
+        assert np.array_equal(da[name], db[name]), f"{name} differs after the restart"
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The uninterrupted runs, Verlet and CVODE, fields every 0.003 s."""
+    d = tmp_path_factory.mktemp("reference")
+    outs = {}
+    for integrator in ("verlet", "cvode"):
+        out = d / f"{integrator}.h5"
+        p = run("run", SCENE, "-o", out, "--steps", STEPS, "--quiet", "--set", f"rigid.integrator={integrator}",
+                "--set", "run.field_interval=0.003")
+        assert p.returncode == 0, p.stderr
+        outs[integrator] = out
+    return outs
+
+
+@pytest.mark.parametrize("integrator", ["verlet", "cvode"])
+def test_sigkill_after_checkpoint_then_restart_is_bit_identical(coupler, reference, tmp_path, integrator):
+    out = tmp_path / "run.h5"
+    ckpt = tmp_path / "run_checkpoint.h5"
+    sets = ["--set", f"rigid.integrator={integrator}", "--set", "run.field_interval=0.003"]
+    proc = start("run", SCENE, "-o", out, "--steps", STEPS, "--quiet", "--checkpoint-every", EVERY, *sets)
+    wait_for(ckpt, proc)
+    time.sleep(0.3)  # somewhere after it: in a step, an output row or the next checkpoint
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert proc.returncode == -signal.SIGKILL, "the run finished before it was killed: make it longer"
+    assert not (tmp_path / "run_checkpoint.h5.tmp").exists() or ckpt.exists()
+    with h5py.File(ckpt, "r") as f:
+        step = int(f.attrs["step"])
+        assert step > 0 and step % 120 == 0  # a checkpoint every 0.002 s
+    p = run("run", SCENE, "-o", out, "--steps", STEPS, "--quiet", "--restart", ckpt, *sets)
+    assert p.returncode == 0, p.stderr
+    assert_identical(reference[integrator], out)
+    ref_fields = reference[integrator].with_name(reference[integrator].stem + "_fields.h5")
+    assert_identical(ref_fields, tmp_path / "run_fields.h5")
+
+
+@pytest.mark.parametrize("sig,code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_signal_writes_checkpoint_and_exits(coupler, reference, tmp_path, sig, code):
+    out = tmp_path / "run.h5"
+    ckpt = tmp_path / "run_checkpoint.h5"
+    proc = start("run", SCENE, "-o", out, "--steps", STEPS, "--quiet", "--checkpoint-every", EVERY, "--set",
+                 "run.field_interval=0.003")
+    wait_for(ckpt, proc)
+    first = os.stat(ckpt).st_mtime_ns
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == code, err
+    assert "stopped by " + ("SIGTERM" if sig == signal.SIGTERM else "SIGINT") in err
+    assert str(ckpt) in err and "--restart" in err
+    assert os.stat(ckpt).st_mtime_ns >= first  # written again at the stop
+    with h5py.File(out, "r") as f:  # the output is readable as it was left
+        rows = len(f["/time"])
+    with h5py.File(ckpt, "r") as f:
+        assert int(f.attrs["rows"]) == rows
+    p = run("run", SCENE, "-o", out, "--steps", STEPS, "--quiet", "--restart", ckpt, "--set",
+            "run.field_interval=0.003")
+    assert p.returncode == 0, p.stderr
+    assert_identical(reference["verlet"], out)
+
+
+@pytest.fixture(scope="module")
+def checkpoint(tmp_path_factory):
+    """A finished short run with checkpoints, to try bad restarts on."""
+    d = tmp_path_factory.mktemp("bad")
+    out = d / "run.h5"
+    p = run("run", SCENE, "-o", out, "--steps", "130", "--quiet", "--checkpoint-every", EVERY, "--set",
+            "run.fields=false")
+    assert p.returncode == 0, p.stderr
+    return d / "run_checkpoint.h5"
+
+
+def test_restart_with_another_scene_is_refused(coupler, checkpoint, tmp_path):
+    out = tmp_path / "x.h5"
+    p = run("run", SCENE, "-o", out, "--steps", "130", "--restart", checkpoint, "--set", "run.fields=false", "--set",
+            "fluid.tau=0.9")
+    assert p.returncode == 1
+    assert "belongs to another scene" in p.stderr
+    assert "tau" in p.stderr  # the line that differs
+    assert not out.exists()  # nothing written
+
+
+def test_restart_with_another_build_is_refused(coupler, checkpoint, tmp_path):
+    bad = tmp_path / "other_build.h5"
+    bad.write_bytes(checkpoint.read_bytes())
+    with h5py.File(bad, "r+") as f:
+        f.attrs["origin_coupler"] = np.bytes_("build 0123456789abcdef")
+    p = run("run", SCENE, "-o", tmp_path / "x.h5", "--steps", "130", "--restart", bad, "--set", "run.fields=false")
+    assert p.returncode == 1
+    assert "coupler build 0123456789abcdef" in p.stderr and "this run has coupler build" in p.stderr
+
+
+def test_restart_with_other_fmus_is_refused(coupler, checkpoint, tmp_path):
+    bad = tmp_path / "other_fmu.h5"
+    bad.write_bytes(checkpoint.read_bytes())
+    with h5py.File(bad, "r+") as f:
+        f.attrs["origin_fluid"] = np.bytes_("GUID {00000000-0000-0000-0000-000000000000}, library 0")
+    p = run("run", SCENE, "-o", tmp_path / "x.h5", "--steps", "130", "--restart", bad, "--set", "run.fields=false")
+    assert p.returncode == 1
+    assert "fluid FMU GUID {00000000" in p.stderr
+
+
+def test_restart_with_other_exchange_is_refused(coupler, checkpoint, tmp_path):
+    p = run("run", SCENE, "-o", tmp_path / "x.h5", "--steps", "130", "--restart", checkpoint, "--set",
+            "run.fields=false", "--exchange-every", "2")
+    assert p.returncode == 1
+    assert "--exchange-every 1" in p.stderr and "--exchange-every 2" in p.stderr
+
+
+def test_restart_from_a_file_that_is_no_checkpoint(coupler, tmp_path):
+    junk = tmp_path / "junk.h5"
+    junk.write_text("not hdf5")
+    p = run("run", SCENE, "-o", tmp_path / "x.h5", "--restart", junk)
+    assert p.returncode == 1
+    assert str(junk) in p.stderr and "cannot open the checkpoint" in p.stderr
+
+
+def test_checkpoint_every_must_be_positive(coupler, tmp_path):
+    p = run("run", SCENE, "-o", tmp_path / "x.h5", "--checkpoint-every", "-1")
+    assert p.returncode == 2
+    assert "--checkpoint-every takes a simulated time > 0" in p.stderr
