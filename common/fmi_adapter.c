@@ -362,7 +362,7 @@ static status_t ensure_component(inst_t *in, const char *fn)
     char **ov = calloc((size_t)in->vars.n + 1, sizeof *ov);
     status_t st = STATUS_OK;
     if (ov == NULL) {
-        report(in, STATUS_FATAL, fn, "out of memory");
+        report(in, STATUS_FATAL, fn, "out of memory for the parameter overrides (%zu bytes)", ((size_t)in->vars.n + 1) * sizeof *ov);
         st = STATUS_FATAL;
         goto done;
     }
@@ -370,7 +370,7 @@ static status_t ensure_component(inst_t *in, const char *fn)
         char buf[FMI_KEY_MAX + 100];
         if (in->vars.v[j].causality == FMI_PARAMETER && parameter_override(in, j, buf, sizeof buf)) {
             if ((ov[nov] = strdup(buf)) == NULL) {
-                report(in, STATUS_FATAL, fn, "out of memory");
+                report(in, STATUS_FATAL, fn, "out of memory for a parameter override (%zu bytes)", strlen(buf) + 1);
                 st = STATUS_FATAL;
                 goto done;
             }
@@ -557,7 +557,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     if (in == NULL) {
         if (functions->logger != NULL) {
             functions->logger(functions->componentEnvironment, instanceName, fmi2Fatal,
-                              fmi_log_categories[FMI_CAT_FATAL][0], "fmi2Instantiate: out of memory");
+                              fmi_log_categories[FMI_CAT_FATAL][0], "fmi2Instantiate: out of memory for the instance (%zu bytes)", sizeof *in);
         }
         return NULL;
     }
@@ -570,7 +570,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     in->log = (log_t){native_log, in};
     in->name = strdup(instanceName != NULL ? instanceName : "");
     if (in->name == NULL) {
-        report(in, STATUS_FATAL, fn, "out of memory");
+        report(in, STATUS_FATAL, fn, "out of memory for the instance name (%zu bytes)", strlen(instanceName) + 1);
         goto fail;
     }
     if (instanceName == NULL || instanceName[0] == '\0') {
@@ -618,12 +618,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     in->made_with = calloc((size_t)in->vars.n + 1, sizeof(double));
     in->strings = calloc((size_t)in->vars.n + 1, sizeof(char *));
     if (in->values == NULL || in->made_with == NULL || in->strings == NULL) {
-        report(in, STATUS_FATAL, fn, "out of memory");
+        report(in, STATUS_FATAL, fn, "out of memory for the values of %d variables (%zu bytes)", in->vars.n, ((size_t)in->vars.n + 1) * (2 * sizeof(double) + sizeof(char *)));
         goto fail;
     }
     for (int j = 0; j < in->vars.n; j++) {
         if (in->vars.v[j].type == FMI_STRING && (in->strings[j] = strdup("")) == NULL) {
-            report(in, STATUS_FATAL, fn, "out of memory");
+            report(in, STATUS_FATAL, fn, "out of memory for an empty String value (1 byte)");
             goto fail;
         }
     }
@@ -895,7 +895,7 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     for (size_t i = 0; i < nvr; i++) {
         char *copy = strdup(value[i]);
         if (copy == NULL) {
-            return fail(in, fn, "out of memory");
+            return fail(in, fn, "out of memory for a String value (%zu bytes)", strlen(value[i]) + 1);
         }
         trace(in, fn, "%s = '%s'", in->vars.v[vr[i]].name, copy);
         free(in->strings[vr[i]]);
@@ -1037,7 +1037,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
             double *keep = malloc(nval + sizeof(double));
             if (keep == NULL) {
                 in->state = S_ERROR;
-                return fail(in, fn, "out of memory");
+                return fail(in, fn, "out of memory for a copy of the values (%zu bytes)", nval + sizeof(double));
             }
             memcpy(keep, in->values, nval);
             memcpy(in->values, made_with, nval);

@@ -56,7 +56,7 @@ static status_t open_file(const char *path, const int n[3], double dx, int resum
     *out = NULL;
     h5fields_t *w = calloc(1, sizeof *w);
     if (w == NULL) {
-        return log_msg(log, STATUS_FATAL, "fields", "out of memory");
+        return log_msg(log, STATUS_FATAL, "fields", "out of memory for the field writer (%zu bytes)", sizeof *w);
     }
     w->file = -1;
     if (log != NULL) {
@@ -67,7 +67,7 @@ static status_t open_file(const char *path, const int n[3], double dx, int resum
     w->xmf = malloc(len + 5);
     if (w->path == NULL || w->xmf == NULL) {
         h5fields_close(w);
-        return log_msg(log, STATUS_FATAL, "fields", "out of memory");
+        return log_msg(log, STATUS_FATAL, "fields", "out of memory for the field file paths (%zu bytes)", 2 * len + 6);
     }
     memcpy(w->xmf, path, len + 1);
     char *dot = strrchr(w->xmf, '.'), *slash = strrchr(w->xmf, '/');
@@ -188,12 +188,12 @@ static status_t remember(h5fields_t *w, long step, double time)
         const int cap = w->cap > 0 ? 2 * w->cap : 16;
         long *ns = realloc(w->steps, sizeof(long) * (size_t)cap);
         if (ns == NULL) {
-            return log_msg(&w->log, STATUS_FATAL, "fields", "out of memory");
+            return log_msg(&w->log, STATUS_FATAL, "fields", "out of memory for the list of %d snapshots (%zu bytes)", cap, sizeof(long) * (size_t)cap);
         }
         w->steps = ns;
         double *nt = realloc(w->times, sizeof(double) * (size_t)cap);
         if (nt == NULL) {
-            return log_msg(&w->log, STATUS_FATAL, "fields", "out of memory");
+            return log_msg(&w->log, STATUS_FATAL, "fields", "out of memory for the list of %d snapshots (%zu bytes)", cap, sizeof(double) * (size_t)cap);
         }
         w->times = nt;
         w->cap = cap;

@@ -117,7 +117,7 @@ static status_t unpack(const char *archive, const char *dest, const log_t *log)
     char *buf = malloc(1 << 16);
     const zip_int64_t n = zip_get_num_entries(z, 0);
     if (buf == NULL) {
-        st = log_msg(log, STATUS_FATAL, CAT, "out of memory");
+        st = log_msg(log, STATUS_FATAL, CAT, "out of memory for the unpacking buffer (%d bytes)", 1 << 16);
     }
     for (zip_int64_t i = 0; i < n && st == STATUS_OK; i++) {
         const char *name = zip_get_name(z, (zip_uint64_t)i, 0);
@@ -246,7 +246,7 @@ static status_t parse_description(fmu_t *f)
     }
     f->vars = calloc((size_t)nsv + 1, sizeof *f->vars);
     if (f->vars == NULL) {
-        st = log_msg(&f->log, STATUS_FATAL, CAT, "out of memory");
+        st = log_msg(&f->log, STATUS_FATAL, CAT, "%s: out of memory for %d variables (%zu bytes)", f->label, nsv, ((size_t)nsv + 1) * sizeof *f->vars);
         goto done;
     }
     for (xmlNodePtr c = root->children; c != NULL && st == STATUS_OK; c = c->next) {
@@ -302,7 +302,7 @@ status_t fmu_load(const char *path, const char *work_dir, const char *label, FIL
     *out = NULL;
     fmu_t *f = calloc(1, sizeof *f);
     if (f == NULL) {
-        return log_msg(log, STATUS_FATAL, CAT, "out of memory");
+        return log_msg(log, STATUS_FATAL, CAT, "out of memory for an FMU (%zu bytes)", sizeof *f);
     }
     f->log = *log;
     f->calls = calls;
@@ -310,7 +310,7 @@ status_t fmu_load(const char *path, const char *work_dir, const char *label, FIL
     struct stat sb;
     char dir[4096];
     if ((f->label = strdup(label)) == NULL) {
-        st = log_msg(log, STATUS_FATAL, CAT, "out of memory");
+        st = log_msg(log, STATUS_FATAL, CAT, "out of memory for the FMU label (%zu bytes)", strlen(label) + 1);
         goto done;
     }
     if (stat(path, &sb) != 0) {
@@ -439,7 +439,7 @@ status_t fmu_instantiate(fmu_t *f, double t0, double t_stop)
     snprintf(uri, sizeof uri, "file://%s/resources", f->dir);
     const fmi2CallbackFunctions cb = {fmi_logger, calloc, free, NULL, f};
     if (f->callbacks == NULL && (f->callbacks = malloc(sizeof *f->callbacks)) == NULL) {
-        return log_msg(&f->log, STATUS_FATAL, CAT, "out of memory");
+        return log_msg(&f->log, STATUS_FATAL, CAT, "%s: out of memory for the FMI callbacks (%zu bytes)", f->label, sizeof *f->callbacks);
     }
     memcpy(f->callbacks, &cb, sizeof cb); /* the members are const: copy, not assign */
     f->inst = f->api.instantiate(f->label, fmi2CoSimulation, f->guid, uri, f->callbacks, fmi2False, fmi2False);

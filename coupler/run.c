@@ -135,7 +135,7 @@ static status_t connect(master_t *m, fmu_t *from, fmu_t *to, unsigned **src, uns
     *src = calloc((size_t)nv + 1, sizeof **src);
     *dst = calloc((size_t)nv + 1, sizeof **dst);
     if (*src == NULL || *dst == NULL) {
-        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the signal map of %d variables (%zu bytes)", nv, 2 * ((size_t)nv + 1) * sizeof **src);
     }
     status_t st = STATUS_OK;
     for (int j = 0; j < nv; j++) {
@@ -172,7 +172,7 @@ static status_t gather_add(master_t *m, gather_t *g, unsigned vr, int dest)
             g->vr = v;
         }
         if (d == NULL) {
-            return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+            return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the observed outputs (%zu bytes)", ((size_t)g->n + 1) * (sizeof(int) + sizeof(unsigned)));
         }
         g->dest = d;
     }
@@ -226,7 +226,7 @@ static status_t plan_observation(master_t *m)
     m->ibody = calloc((size_t)ns + 1, sizeof(int)); /* [ns]: the number of moving bodies */
     m->iintact = calloc((size_t)nc + 1, sizeof(int));
     if (m->row == NULL || m->ibody == NULL || m->iintact == NULL) {
-        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the output row (%zu bytes)", (size_t)m->nrow * sizeof(double) + ((size_t)ns + (size_t)nc + 2) * sizeof(int));
     }
     status_t st = STATUS_OK;
     char name[128];
@@ -299,7 +299,7 @@ static status_t plan_observation(master_t *m)
         gs[k]->tmp = calloc((size_t)gs[k]->n + 1, sizeof(double));
         gs[k]->itmp = calloc((size_t)gs[k]->n + 1, sizeof(int));
         if (gs[k]->tmp == NULL || gs[k]->itmp == NULL) {
-            st = log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+            st = log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the read buffers (%zu bytes)", ((size_t)gs[k]->n + 1) * (sizeof(double) + sizeof(int)));
         }
     }
     return st;
@@ -648,7 +648,7 @@ static status_t checkpoint_record(master_t *m, replay_t *c, long n)
             c->cap = c->cap > 0 ? 2 * c->cap : 256;
             double *p = realloc(c->rows, sizeof(double) * (size_t)width * (size_t)c->cap);
             if (p == NULL) {
-                return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+                return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for %ld recorded rows (%zu bytes)", c->cap, sizeof(double) * (size_t)width * (size_t)c->cap);
             }
             c->rows = p;
         }
@@ -656,7 +656,7 @@ static status_t checkpoint_record(master_t *m, replay_t *c, long n)
     }
     r = c->replay ? malloc(sizeof(double) * (size_t)width) : c->rows + (size_t)k * (size_t)width;
     if (r == NULL) {
-        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory");
+        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for a recorded row (%zu bytes)", sizeof(double) * (size_t)width);
     }
     memcpy(r, m->row, sizeof(double) * (size_t)m->nrow);
     for (int i = 0; i < m->ns; i++) {
@@ -737,7 +737,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         goto done;
     }
     if ((m.xbuf = calloc((size_t)(m.nto_fluid + m.nto_rigid) + 1, sizeof(double))) == NULL) {
-        log_msg(log, STATUS_FATAL, CAT, "out of memory");
+        log_msg(log, STATUS_FATAL, CAT, "out of memory for the exchange buffer (%zu bytes)", ((size_t)(m.nto_fluid + m.nto_rigid) + 1) * sizeof(double));
         goto done;
     }
     if (check_guid(&m, m.fluid) >= STATUS_ERROR || (m.rigid != NULL && check_guid(&m, m.rigid) >= STATUS_ERROR) ||
@@ -785,7 +785,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     }
     int *pairs = calloc(2 * (size_t)m.nc + 1, sizeof(int));
     if (pairs == NULL) {
-        log_msg(log, STATUS_FATAL, CAT, "out of memory");
+        log_msg(log, STATUS_FATAL, CAT, "out of memory for %d connection pairs (%zu bytes)", m.nc, (2 * (size_t)m.nc + 1) * sizeof(int));
         goto done;
     }
     for (int k = 0; k < m.nc; k++) {
@@ -858,7 +858,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
                     m.settle_t = pt;
                 }
                 if (pv == NULL) {
-                    log_msg(log, STATUS_FATAL, CAT, "out of memory");
+                    log_msg(log, STATUS_FATAL, CAT, "out of memory for %ld rows of the settling summary (%zu bytes)", m.nsettle + 1, 2 * sizeof(double) * (size_t)(m.nsettle + 1));
                     goto stopped;
                 }
                 m.settle_v = pv;

@@ -11,10 +11,14 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <stdint.h>
 #include <string.h>
 
 static double *alloc_populations(const grid_t *g)
 {
+    if (g->ncells > (SIZE_MAX - 64) / (LB_Q * sizeof(double))) {
+        return NULL; /* more bytes than an address space holds */
+    }
     size_t bytes = (size_t)LB_Q * g->ncells * sizeof(double);
     bytes = (bytes + 63) / 64 * 64;
     return aligned_alloc(64, bytes);
@@ -100,7 +104,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     *out = NULL;
     fluid_t *fl = calloc(1, sizeof *fl);
     if (fl == NULL) {
-        return log_msg(log, STATUS_ERROR, "fluid", "out of memory");
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the fluid component (%zu bytes)", sizeof *fl);
     }
     if (log != NULL) {
         fl->log = *log;
@@ -119,9 +123,11 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     fl->f[1] = alloc_populations(&fl->g);
     fl->flags = calloc(fl->g.ncells, 1);
     if (fl->path == NULL || fl->f[0] == NULL || fl->f[1] == NULL || fl->flags == NULL) {
-        log_msg(log, STATUS_ERROR, "fluid", "%s: out of memory for %d x %d x %d cells (%.3g GB)", fl->path,
-                fl->g.n[0], fl->g.n[1], fl->g.n[2],
-                (double)fl->g.ncells * units_bytes_per_cell() / 1e9);
+        log_msg(log, STATUS_ERROR, "fluid",
+                "%s: out of memory for the populations and flags of %d x %d x %d cells (%.4g GB: two arrays of "
+                "%.4g GB and the flags)",
+                fl->path, fl->g.n[0], fl->g.n[1], fl->g.n[2], (double)fl->g.ncells * units_bytes_per_cell() / 1e9,
+                (double)fl->g.ncells * LB_Q * sizeof(double) / 1e9);
         fluid_free(fl);
         return STATUS_ERROR;
     }

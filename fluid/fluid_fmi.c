@@ -89,9 +89,10 @@ typedef struct {
     log_t log;
 } fluid_fmi_t;
 
-static status_t oom(const log_t *log)
+/* An allocation failed: what it was for and its size. */
+static status_t oom(const log_t *log, const char *what, size_t bytes)
 {
-    return log_msg(log, STATUS_FATAL, "fluid", "out of memory");
+    return log_msg(log, STATUS_FATAL, "fluid", "out of memory for %s (%zu bytes)", what, bytes);
 }
 
 static status_t add_vector(fmi_vars_t *vs, fmi_causality_t causality, int what, int sphere, const char *quantity,
@@ -100,7 +101,7 @@ static status_t add_vector(fmi_vars_t *vs, fmi_causality_t causality, int what, 
     for (int a = 0; a < 3; a++) {
         fmi_var_t *v = fmi_vars_add(vs, FMI_REAL, causality, unit, "sphere[%d].%s.%c", sphere, quantity, AXIS[a]);
         if (v == NULL) {
-            return oom(log);
+            return oom(log, "the variable list", ((size_t)vs->n + 1) * sizeof(fmi_var_t));
         }
         snprintf(v->description, sizeof v->description, "%s of sphere %d, %c component", desc, sphere, AXIS[a]);
         v->what = what;
@@ -126,7 +127,7 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                                   "LBM time step (sets tau)")
                  : fmi_vars_param(&vs, "fluid.tau", "fluid.tau", -1, NULL, f->tau, 0.5, inf, FMI_LO_OPEN,
                                   "BGK/TRT relaxation time (sets the LBM time step)"))) {
-        st = oom(log);
+        st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
         goto done;
     }
     for (int a = 0; a < 3; a++) {
@@ -134,7 +135,7 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
         snprintf(name, sizeof name, "fluid.body_force.%c", AXIS[a]);
         snprintf(desc, sizeof desc, "body force per volume driving the fluid, %c component", AXIS[a]);
         if (!fmi_vars_param(&vs, name, "fluid.body_force", a, "N/m3", f->body_force[a], -inf, inf, 0, desc)) {
-            st = oom(log);
+            st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
             goto done;
         }
     }
@@ -174,14 +175,14 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
     if (s->run.fields) {
         fmi_var_t *v = fmi_vars_add(&vs, FMI_STRING, FMI_PARAMETER, NULL, "output.fields");
         if (v == NULL) {
-            st = oom(log);
+            st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
             goto done;
         }
         v->what = Q_FIELDS_FILE;
         snprintf(v->description, sizeof v->description,
                  "HDF5 file for field snapshots every run.field_interval (\"\": none), .xmf beside it");
         if ((v = fmi_vars_add(&vs, FMI_STRING, FMI_PARAMETER, NULL, "output.fields_resume")) == NULL) {
-            st = oom(log);
+            st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
             goto done;
         }
         v->what = Q_FIELDS_RESUME;
@@ -203,7 +204,7 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                 continue;
             }
             if (!fmi_vars_add_drag(&vs, FMI_OUTPUT, i, Q_DRAG, Q_ROTATIONAL_DRAG)) {
-                st = oom(log);
+                st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
                 goto done;
             }
         }
@@ -237,7 +238,7 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                                ? fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, diag[d].unit, "%s.%c", diag[d].name, AXIS[a])
                                : fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, diag[d].unit, "%s", diag[d].name);
             if (v == NULL) {
-                st = oom(log);
+                st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
                 goto done;
             }
             if (diag[d].vector) {
@@ -281,14 +282,14 @@ static status_t fluid_fmi_create(const scene_t *s, double t0, const log_t *log, 
     *comp = NULL;
     fluid_fmi_t *m = calloc(1, sizeof *m);
     if (m == NULL) {
-        return oom(log);
+        return oom(log, "the component", sizeof *m);
     }
     m->ns = scene_total_spheres(s);
     m->kin = calloc(9 * (size_t)m->ns + 1, sizeof(double));
     m->is_free = calloc((size_t)m->ns + 1, 1);
     if (m->kin == NULL || m->is_free == NULL) {
         fluid_fmi_free(m);
-        return oom(log);
+        return oom(log, "the sphere kinematics", (9 * (size_t)m->ns + 1) * sizeof(double) + (size_t)m->ns + 1);
     }
     status_t st = fluid_create(s, log, &m->fl);
     if (st >= STATUS_ERROR) {
@@ -304,7 +305,8 @@ static status_t fluid_fmi_create(const scene_t *s, double t0, const log_t *log, 
     m->flags = malloc(m->ncells);
     if (m->rho == NULL || m->u == NULL || m->flags == NULL) {
         fluid_fmi_free(m);
-        return oom(log);
+        return log_msg(log, STATUS_FATAL, "fluid", "out of memory for the field buffers of %zu cells (%.4g MB)",
+                       m->ncells, 33.0 * (double)m->ncells / 1e6);
     }
     m->scene = s;
     m->log = *log;

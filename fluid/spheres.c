@@ -326,7 +326,8 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, 
     for (int k = 0; k < sp->n; k++) {
         if (mark_sphere(sp, g, flags, k, &marks, &nm, &cap) != STATUS_OK) {
             free(marks);
-            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres");
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres (lists of %zu cells)",
+                           sp->nsolid + sp->nfresh + 1);
         }
     }
     /* uncovered: solid before, not marked now */
@@ -338,7 +339,8 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, 
         }
         if (!grow((void **)&sp->fresh, &sp->cap_fresh, sp->nfresh + 1, sizeof *sp->fresh)) {
             free(marks);
-            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres");
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres (lists of %zu cells)",
+                           sp->nsolid + sp->nfresh + 1);
         }
         sp->fresh[sp->nfresh++] = i;
         flags[i] = FLAG_FRESH;
@@ -354,7 +356,8 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, 
         flags[i] = FLAG_SOLID;
         if (!grow((void **)&sp->solid, &sp->cap_solid, sp->nsolid + 1, sizeof *sp->solid)) {
             free(marks);
-            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres");
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres (lists of %zu cells)",
+                           sp->nsolid + sp->nfresh + 1);
         }
         sp->solid[sp->nsolid++] = i;
         if (!was_solid && !sp->first) {
@@ -520,7 +523,10 @@ static status_t build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, cons
     }
     free(visited);
     if (st != STATUS_OK) {
-        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for sphere boundary links");
+        return log_msg(log, STATUS_ERROR, "fluid",
+                       "out of memory for the sphere boundary links (%zu links of %zu bytes) or the list of %zu "
+                       "visited cells",
+                       sp->nlinks + 1, sizeof *sp->links, nv + 1);
     }
     return STATUS_OK;
 }

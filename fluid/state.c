@@ -96,7 +96,8 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     if (h.nsolid > fl->spheres.cap_solid) {
         size_t *ns = realloc(fl->spheres.solid, h.nsolid * sizeof(size_t));
         if (ns == NULL) {
-            return log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory restoring the state");
+            return log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory restoring the list of %zu solid cells (%zu bytes)",
+                           (size_t)h.nsolid, (size_t)h.nsolid * sizeof(size_t));
         }
         fl->spheres.solid = ns;
         fl->spheres.cap_solid = h.nsolid;

@@ -95,7 +95,7 @@ status_t rigid_sections_update(rigid_t *r)
     g.seen = malloc((size_t)ns * sizeof(int));
     status_t st = STATUS_OK;
     if (!g.eu || !g.ev || !g.flow || !g.prev_edge || !g.queue || !g.seen) {
-        st = log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory building connection sections");
+        st = log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory for the connection-section graph of %d spheres (%zu bytes)", ns, 3 * maxe * sizeof(int) + 3 * (size_t)ns * sizeof(int));
         goto cleanup;
     }
     for (int k = 0; k < r->nconn; k++) {

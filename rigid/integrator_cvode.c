@@ -236,7 +236,7 @@ static status_t cv_create(rigid_t *r, void **data)
 {
     cvode_data_t *d = calloc(1, sizeof *d);
     if (d == NULL) {
-        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "cvode: out of memory");
+        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "cvode: out of memory for its data (%zu bytes)", sizeof *d);
     }
     d->r = r;
     int flag = SUNContext_Create(NULL, &d->ctx);

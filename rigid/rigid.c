@@ -53,7 +53,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     }
     rigid_t *r = calloc(1, sizeof *r);
     if (r == NULL) {
-        return log_msg(log, STATUS_ERROR, RIGID_CAT, "out of memory");
+        return log_msg(log, STATUS_ERROR, RIGID_CAT, "out of memory for the rigid component (%zu bytes)", sizeof *r);
     }
     if (log != NULL) {
         r->log = *log;
@@ -86,7 +86,12 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     double *rad = malloc(ns * sizeof(double));
     if (!r->spheres || !r->bodies || !r->scratch_bodies || !r->conn || !r->section || !r->touch || !r->sf || !r->st || !r->bf ||
         !r->bt || !r->sx || !r->sv || !r->lub_rate || !members || !ids || !c || !s || !j || !rad) {
-        st = log_msg(log, STATUS_ERROR, RIGID_CAT, "out of memory");
+        st = log_msg(log, STATUS_ERROR, RIGID_CAT,
+                     "out of memory for the arrays of %zu spheres and %d connections (about %.4g MB: the touch "
+                     "table grows as spheres^2)",
+                     ns, r->conn_cap,
+                     ((double)ns * (sizeof *r->spheres + 2 * sizeof *r->bodies + 15 * sizeof(double) + ns) +
+                      (double)r->conn_cap * (sizeof *r->conn + ns)) / 1e6);
         goto cleanup;
     }
     if ((st = rigid_config_check_connected(cfg, log, members, ids)) != STATUS_OK) {

@@ -66,9 +66,10 @@ typedef struct {
     double *drag; /* per sphere: zt, zr (implicit coupling) */
 } rigid_fmi_t;
 
-static status_t oom(const log_t *log)
+/* An allocation failed: what it was for and its size. */
+static status_t oom(const log_t *log, const char *what, size_t bytes)
 {
-    return log_msg(log, STATUS_FATAL, "rigid", "out of memory");
+    return log_msg(log, STATUS_FATAL, "rigid", "out of memory for %s (%zu bytes)", what, bytes);
 }
 
 static int free_bodies(const scene_t *s)
@@ -86,7 +87,7 @@ static status_t add_vector(fmi_vars_t *vs, fmi_causality_t causality, int what, 
     for (int a = 0; a < 3; a++) {
         fmi_var_t *v = fmi_vars_add(vs, FMI_REAL, causality, unit, "%s[%d].%s.%c", kind, index, quantity, AXIS[a]);
         if (v == NULL) {
-            return oom(log);
+            return oom(log, "the variable list", ((size_t)vs->n + 1) * sizeof(fmi_var_t));
         }
         snprintf(v->description, sizeof v->description, "%s of %s %d, %c component", desc, kind, index, AXIS[a]);
         v->what = what;
@@ -110,14 +111,14 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
         snprintf(name, sizeof name, "rigid.gravity.%c", AXIS[a]);
         snprintf(desc, sizeof desc, "gravitational acceleration, %c component", AXIS[a]);
         if (!fmi_vars_param(&vs, name, "rigid.gravity", a, "m/s2", s->rigid.gravity[a], -inf, inf, 0, desc)) {
-            st = oom(log);
+            st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
             goto done;
         }
     }
     fmi_var_t *sub = fmi_vars_param(&vs, "rigid.substeps", "rigid.substeps", -1, NULL, s->rigid.substeps, 1.0, 1e6,
                                     0, "rigid sub-steps per communication step (hydrodynamic load held)");
     if (sub == NULL) {
-        st = oom(log);
+        st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
         goto done;
     }
     sub->type = FMI_INTEGER;
@@ -127,7 +128,7 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                         "CVODE absolute tolerance on the scaled state (integrator cvode)") ||
         !fmi_vars_param(&vs, "fluid.density", "fluid.density", -1, "kg/m3", s->fluid.density, 0.0, inf, FMI_LO_OPEN,
                         "fluid density, for buoyancy")) {
-        st = oom(log);
+        st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
         goto done;
     }
     for (int b = 0, i = 0; b < s->nbodies; b++) {
@@ -144,7 +145,7 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                 continue; /* the drag pair exists for implicitly coupled bodies only (common/coupling.h) */
             }
             if (!fmi_vars_add_drag(&vs, FMI_INPUT, i, Q_DRAG, Q_ROTATIONAL_DRAG)) {
-                st = oom(log);
+                st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
                 goto done;
             }
         }
@@ -170,7 +171,7 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
             }
             fmi_var_t *v = fmi_vars_add(&vs, FMI_INTEGER, FMI_OUTPUT, NULL, "sphere[%d].body", i);
             if (v == NULL) {
-                st = oom(log);
+                st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
                 goto done;
             }
             snprintf(v->description, sizeof v->description, "body id of sphere %d (changes on break-up and sticking)",
@@ -188,7 +189,7 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
         }
         fmi_var_t *v = fmi_vars_add(&vs, FMI_BOOLEAN, FMI_OUTPUT, NULL, "connection[%d].intact", k);
         if (v == NULL) {
-            st = oom(log);
+            st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
             goto done;
         }
         snprintf(v->description, sizeof v->description, "true until connection %d (spheres %d-%d) breaks", k,
@@ -198,7 +199,7 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
     }
     fmi_var_t *nb = fmi_vars_add(&vs, FMI_INTEGER, FMI_OUTPUT, NULL, "rigid.bodies");
     if (nb == NULL) {
-        st = oom(log);
+        st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
         goto done;
     }
     snprintf(nb->description, sizeof nb->description, "number of moving bodies (changes on break-up and sticking)");
@@ -209,7 +210,7 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                                                 AXIS[a])
                                  : NULL;
         if (l == NULL) {
-            st = oom(log);
+            st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
             goto done;
         }
         snprintf(p->description, sizeof p->description, "linear momentum of all moving bodies, %c component", AXIS[a]);
@@ -252,7 +253,7 @@ static status_t rigid_fmi_create(const scene_t *s, double t0, const log_t *log, 
     }
     if (m == NULL || (m->load = calloc(6 * (size_t)ns + 1, sizeof(double))) == NULL ||
         (m->drag = calloc(2 * (size_t)ns + 1, sizeof(double))) == NULL) {
-        st = oom(log);
+        st = oom(log, "the component and its sphere loads", sizeof *m + (8 * (size_t)ns + 2) * sizeof(double));
         goto done;
     }
     m->ns = ns;

@@ -42,7 +42,7 @@ status_t rigid_config_from_scene(const scene_t *s, double t0, const log_t *log, 
         free(sp);
         free(bd);
         free(cn);
-        return log_msg(log, STATUS_FATAL, "rigid", "out of memory");
+        return log_msg(log, STATUS_FATAL, "rigid", "out of memory for the configuration of %d spheres, %d bodies, %d connections (%zu bytes)", ns, s->nbodies, s->nconnections, ((size_t)ns + 1) * sizeof *sp + ((size_t)s->nbodies + 1) * sizeof *bd + ((size_t)s->nconnections + 1) * sizeof *cn);
     }
     for (int b = 0, i = 0; b < s->nbodies; b++) {
         const scene_body_t *body = &s->bodies[b];

@@ -88,12 +88,14 @@ status_t rigid_state_restore(rigid_t *r, const void *buf, size_t size)
     if (h.nconn > r->conn_cap) {
         rigid_conn_t *nc = realloc(r->conn, (size_t)h.nconn * sizeof *nc);
         if (nc == NULL) {
-            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory restoring the state");
+            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory restoring %d connections (%zu bytes)",
+                           (int)h.nconn, (size_t)h.nconn * sizeof *nc);
         }
         r->conn = nc;
         unsigned char *sec = realloc(r->section, (size_t)h.nconn * (size_t)r->nspheres);
         if (sec == NULL) {
-            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory restoring the state");
+            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory restoring the sections of %d connections (%zu bytes)",
+                           (int)h.nconn, (size_t)h.nconn * (size_t)r->nspheres);
         }
         r->section = sec;
         r->conn_cap = h.nconn;

@@ -46,7 +46,7 @@ static status_t buf_alloc(rigid_t *r, world_buf_t *w)
     w->s = malloc(n * sizeof *w->s);
     w->j = malloc(n * sizeof *w->j);
     if (!w->members || !w->p || !w->s || !w->j) {
-        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory in break-up/sticking");
+        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory for the break-up/sticking buffers of %zu spheres (%zu bytes)", n, n * (sizeof(int) + sizeof *w->p + sizeof *w->s + sizeof *w->j));
     }
     return STATUS_OK;
 }
@@ -107,7 +107,7 @@ status_t rigid_regroup(rigid_t *r, int bi)
     world_buf_t w = {0};
     status_t st = buf_alloc(r, &w);
     if (comp == NULL || stack == NULL) {
-        st = log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory in break-up");
+        st = log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory for the break-up component lists of %d spheres (%zu bytes)", ns, 2 * (size_t)ns * sizeof(int));
     }
     if (st != STATUS_OK) {
         goto cleanup;
@@ -152,7 +152,7 @@ status_t rigid_regroup(rigid_t *r, int bi)
     world_buf_t sub = {0};
     if (buf_alloc(r, &sub) != STATUS_OK) {
         buf_free(&sub);
-        st = log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory in break-up");
+        st = log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory for the break-up buffers of %d spheres", r->nspheres);
         goto cleanup;
     }
     for (int c = 0; c < ncomp; c++) {
@@ -195,7 +195,7 @@ status_t rigid_breakup(rigid_t *r, int *changed)
     int nb0 = r->nbodies;
     unsigned char *hit = calloc((size_t)r->nspheres, 1);
     if (hit == NULL) {
-        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory in break-up");
+        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory for the break-up flags of %d spheres (%d bytes)", r->nspheres, r->nspheres);
     }
     for (int k = 0; k < r->nconn; k++) {
         rigid_conn_t *c = &r->conn[k];
@@ -248,12 +248,12 @@ static status_t add_connection(rigid_t *r, int a, int b)
         int cap = r->conn_cap < 8 ? 16 : 2 * r->conn_cap;
         rigid_conn_t *nc = realloc(r->conn, (size_t)cap * sizeof *nc);
         if (nc == NULL) {
-            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory adding a connection");
+            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory for %d connections (%zu bytes)", cap, (size_t)cap * sizeof *nc);
         }
         r->conn = nc;
         unsigned char *sec = realloc(r->section, (size_t)cap * (size_t)r->nspheres);
         if (sec == NULL) {
-            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory adding a connection");
+            return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "out of memory for the sections of %d connections (%zu bytes)", cap, (size_t)cap * (size_t)r->nspheres);
         }
         r->section = sec;
         r->conn_cap = cap;

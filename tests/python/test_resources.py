@@ -1,0 +1,82 @@
+"""Resource limits (README "When a run fails"): a scene that needs more memory
+or disk than the machine has is flagged by `coupler check`, refused by
+`coupler run` before anything is allocated or written, and an FMU that cannot
+allocate its grid says what it was allocating and how much."""
+import os
+import re
+
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+from conftest import MODELS, run
+
+SCENE = MODELS / "sinking_sphere.yaml"
+# 60 cells per 6e-4 m: a 6 m cube is 600000^3 cells, 2.2e17 cells, ~6.6e19 bytes
+HUGE = "domain.size=[6, 6, 6]"
+
+
+def mem_available_mb():
+    with open("/proc/meminfo") as f:
+        for line in f:
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024 / 1e6
+    raise AssertionError("no MemAvailable in /proc/meminfo")
+
+
+def test_check_reports_needs_and_warns_when_memory_is_short(coupler):
+    p = run("check", SCENE)
+    assert p.returncode == 0, p.stderr
+    assert "run needs" in p.stdout and "warnings           0" in p.stdout
+    p = run("check", SCENE, "--set", HUGE)
+    assert p.returncode == 0, p.stderr
+    m = re.search(r"needs ([0-9.e+]+) MB of memory .*this machine has ([0-9.e+]+) MB available", p.stderr)
+    assert m, p.stderr
+    need, have = float(m.group(1)), float(m.group(2))
+    # 2.16e17 cells x 305 bytes (two D3Q19 arrays of doubles and a flag) plus 33 bytes of field buffers
+    assert abs(need / (2.16e17 * 338 / 1e6) - 1) < 0.01
+    assert abs(have / mem_available_mb() - 1) < 0.2  # the machine's MemAvailable (it moves a little)
+    assert "field snapshots" in p.stderr and "MB free" in p.stderr  # the disk too
+    assert "warnings           2" in p.stdout
+
+
+def test_run_refuses_before_allocating(coupler, tmp_path):
+    out = tmp_path / "huge.h5"
+    p = run("run", SCENE, "--set", HUGE, "-o", out)
+    assert p.returncode == 1
+    assert "the run needs" in p.stderr and "MemAvailable" in p.stderr
+    assert "not run, nothing written" in p.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_disk_shortfall_names_what_is_written(coupler, tmp_path):
+    # snapshots every step of a 60^3 grid for 0.06 s: 3600 x 7 MB = 26 GB,
+    # refused only if the disk has less free; otherwise check states the need
+    p = run("check", SCENE, "--set", "run.field_interval=1.7e-5")
+    st = os.statvfs(".")
+    free_mb = st.f_bavail * st.f_frsize / 1e6
+    need = float(re.search(r"([0-9.e+]+) MB on disk", p.stdout).group(1))
+    assert need > 2.0e4
+    assert ("MB free" in p.stderr) == (need > free_mb)
+
+
+def test_fmu_names_the_failed_allocation(coupler, tmp_path, capfd):
+    p = run("export", SCENE, "--set", HUGE, "-d", tmp_path)
+    assert p.returncode == 0, p.stderr
+    unzipped = extract(str(tmp_path / "fluid.fmu"))
+    md = read_model_description(unzipped)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier="fluid", instanceName="huge")
+    fmu.instantiate(loggingOn=True)  # fmpy's logger prints every message
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    failed = False
+    try:
+        fmu.exitInitializationMode()
+    except Exception:  # fmpy raises on fmi2Error
+        failed = True
+    finally:
+        fmu.freeInstance()
+    assert failed, "a grid of 2e17 cells was allocated"
+    log = capfd.readouterr().out
+    # what (the populations and flags of the grid) and how much
+    assert "out of memory for the populations and flags of 600000 x 600000 x 600000 cells" in log, log
+    assert re.search(r"\(6\.[0-9]+e\+10 GB", log), log
