@@ -137,22 +137,23 @@ def test_restart_with_another_scene_is_refused(coupler, checkpoint, tmp_path):
     assert not out.exists()  # nothing written
 
 
-def test_restart_with_another_build_is_refused(coupler, checkpoint, tmp_path):
-    bad = tmp_path / "other_build.h5"
+def restart_with(checkpoint, tmp_path, attr, value):
+    """Restarts from a copy of the checkpoint with one origin attribute changed."""
+    bad = tmp_path / "tampered.h5"
     bad.write_bytes(checkpoint.read_bytes())
     with h5py.File(bad, "r+") as f:
-        f.attrs["origin_coupler"] = np.bytes_("build 0123456789abcdef")
-    p = run("run", SCENE, "-o", tmp_path / "x.h5", "--steps", "130", "--restart", bad, "--set", "run.fields=false")
+        f.attrs[attr] = np.bytes_(value)
+    return run("run", SCENE, "-o", tmp_path / "x.h5", "--steps", "130", "--restart", bad, "--set", "run.fields=false")
+
+
+def test_restart_with_another_build_is_refused(coupler, checkpoint, tmp_path):
+    p = restart_with(checkpoint, tmp_path, "origin_coupler", "build 0123456789abcdef")
     assert p.returncode == 1
     assert "coupler build 0123456789abcdef" in p.stderr and "this run has coupler build" in p.stderr
 
 
 def test_restart_with_other_fmus_is_refused(coupler, checkpoint, tmp_path):
-    bad = tmp_path / "other_fmu.h5"
-    bad.write_bytes(checkpoint.read_bytes())
-    with h5py.File(bad, "r+") as f:
-        f.attrs["origin_fluid"] = np.bytes_("GUID {00000000-0000-0000-0000-000000000000}, library 0")
-    p = run("run", SCENE, "-o", tmp_path / "x.h5", "--steps", "130", "--restart", bad, "--set", "run.fields=false")
+    p = restart_with(checkpoint, tmp_path, "origin_fluid", "GUID {00000000-0000-0000-0000-000000000000}, library 0")
     assert p.returncode == 1
     assert "fluid FMU GUID {00000000" in p.stderr
 
