@@ -34,7 +34,7 @@ TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattic
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
 
-.PHONY: all run test validate bench report fmus clean deps
+.PHONY: all run test validate bench report fmus clean deps fuzz
 all: $(BUILD)/coupler $(BUILD)/run_tests $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so
 
 deps:
@@ -130,8 +130,38 @@ $(BUILD)/fmu/rigid.so: $(call fmu_obj,$(FMU_RIGID_SRC)) $(BUILD)/fmu/obj/fmi_ada
 
 fmus: $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so
 
+# Fuzzing the scene reader (README "Tests"): clang + libFuzzer with ASan and
+# UBSan, objects of its own under build/fuzz/ (never mixed with gcc's). New
+# corpus entries go to build/fuzz/corpus (seeded with models/*.yaml and
+# tests/fuzz/corpus), crashes/leaks/timeouts to build/fuzz/.
+FUZZ_SECONDS ?= 600
+FUZZ_CC      := clang
+FUZZ_SAN     := -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer
+FUZZ_CFLAGS  := -std=c11 -D_POSIX_C_SOURCE=200809L -O1 -g $(FUZZ_SAN) -Wall -Wextra -Wpedantic $(WERROR) \
+                $(shell pkg-config --cflags libcyaml yaml-0.1 2>/dev/null)
+FUZZ_SRC     := common/status.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
+                common/scene_build.c common/scene_check.c
+fuzz_obj = $(patsubst %.c,$(BUILD)/fuzz/obj/%.o,$(1))
+
+$(BUILD)/fuzz/obj/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link -MMD -MP -c $< -o $@
+
+$(BUILD)/fuzz/fuzz_scene: $(call fuzz_obj,$(FUZZ_SRC) tests/fuzz/fuzz_scene.c)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ $(shell pkg-config --libs libcyaml yaml-0.1 2>/dev/null) -lm
+
+fuzz:
+	@tools/install-deps.sh fuzz
+	@$(MAKE) --no-print-directory $(BUILD)/fuzz/fuzz_scene
+	@mkdir -p $(BUILD)/fuzz/corpus
+	@cp models/*.yaml $(BUILD)/fuzz/corpus/   # the scenes as seeds, beside tests/fuzz/corpus
+	$(BUILD)/fuzz/fuzz_scene -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 -max_len=16384 \
+	    -dict=tests/fuzz/scene.dict -artifact_prefix=$(BUILD)/fuzz/ -print_final_stats=1 \
+	    $(BUILD)/fuzz/corpus tests/fuzz/corpus
+
 clean:
 	rm -rf $(BUILD)
 
 -include $(shell find $(BUILD)/obj -name '*.d' 2>/dev/null)
 -include $(shell find $(BUILD)/fmu/obj -name '*.d' 2>/dev/null)
+-include $(shell find $(BUILD)/fuzz/obj -name '*.d' 2>/dev/null)
