@@ -26,7 +26,7 @@ COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/fmu.c couple
                common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c \
                tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/test_spheres.c tests/fluid/approach_harness.c \
-               tests/fluid/test_wall_approach.c tests/common/test_scene.c \
+               tests/fluid/test_wall_approach.c tests/common/test_scene.c tests/common/test_scene_bad.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
                tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
                tests/rigid/test_input.c tests/rigid/test_lubrication.c tests/rigid/test_walls.c
