@@ -75,13 +75,13 @@ static char *deep_unclosed(void)
     return repeat(MINIMAL "contacts: ", "{a: ", 3000, "", "", 0, "\n");
 }
 
-/* Two bodies of 1000 spheres each, all at the same place: 10^6 overlapping
+/* Two bodies of 400 spheres each, all at the same place: 160 000 overlapping
  * pairs of spheres of different bodies (spheres of one body may overlap). */
 static char *many_overlapping_spheres(void)
 {
     static const char sphere[] = "{center: [5.0e-4, 5.0e-4, 5.0e-4], radius: 2.0e-4}, ";
-    char *b0 = repeat(MINIMAL "bodies:\n  - {density: 2000.0, spheres: [", sphere, 999, "", "", 0, "");
-    char *all = repeat(b0, sphere, 1, "]}\n  - {density: 2000.0, spheres: [", sphere, 1000, "]}\n");
+    char *b0 = repeat(MINIMAL "bodies:\n  - {density: 2000.0, spheres: [", sphere, 399, "", "", 0, "");
+    char *all = repeat(b0, sphere, 1, "]}\n  - {density: 2000.0, spheres: [", sphere, 400, "]}\n");
     free(b0);
     return all;
 }
@@ -214,9 +214,9 @@ static const bad_scene_t CASES[] = {
      "scene.yaml:21: bodies.1.spheres.0.center = [0.00084, 0.0005, 0.0005] (sphere 2, body 1) overlaps sphere 1 of "
      "body 0 at [0.00065, 0.0005, 0.0005]: centre distance 0.00019 m < sum of radii 0.0002 m; allowed: distance >= "
      "sum of radii for spheres of different bodies"},
-    /* logged 10^6 messages: now the first 50 and one that counts the rest */
+    /* logged n^2 messages: now the first 50 and one that counts the rest */
     {0, NULL, many_overlapping_spheres, {NULL}, 51,
-     "scene.yaml:6: bodies.1.spheres.0.center = [0.0005, 0.0005, 0.0005] (sphere 1000, body 1) overlaps sphere 0 of "
+     "scene.yaml:6: bodies.1.spheres.0.center = [0.0005, 0.0005, 0.0005] (sphere 400, body 1) overlaps sphere 0 of "
      "body 0 at [0.0005, 0.0005, 0.0005]: centre distance 0 m < sum of radii 0.0004 m; allowed: distance >= sum of "
      "radii for spheres of different bodies"},
 
@@ -396,8 +396,8 @@ static void test_bad_scene_table(void)
         bad_log_t k;
         run_case(i, &k);
         if (CASES[i].gen == many_overlapping_spheres) {
-            /* 2 x 1000 spheres: 10^6 overlaps, the first 50 logged */
-            CU_ASSERT_STRING_EQUAL(k.last, "scene.yaml: 999950 more messages not shown (999950 errors, 0 warnings); "
+            /* 2 x 400 spheres: 160 000 overlaps, the first 50 logged */
+            CU_ASSERT_STRING_EQUAL(k.last, "scene.yaml: 159950 more messages not shown (159950 errors, 0 warnings); "
                                            "only the first 50 are");
         }
     }
