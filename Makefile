@@ -3,13 +3,22 @@
 
 CC       := gcc
 BUILD    := build
+# `make test SAN=1`: everything built again under build/san with ASan + UBSan
+# and the suites run there (README "Tests").
+SAN      ?=
+SANFLAGS :=
+ifeq ($(SAN),1)
+BUILD    := build/san
+SANFLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+endif
+SAN_ENV  := $(if $(filter 1,$(SAN)),ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1,)
 VENV     := .venv
 PY       := $(VENV)/bin/python
 HDF5     := hdf5-serial
 PKGS     := $(HDF5) libcyaml yaml-0.1 cunit
 WERROR   ?= $(if $(CI),-Werror,)
 CFLAGS   := -std=c11 -D_POSIX_C_SOURCE=200809L -O3 -march=native -g -fopenmp -fPIC \
-            -Wall -Wextra -Wpedantic $(WERROR) $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+            -Wall -Wextra -Wpedantic $(WERROR) $(SANFLAGS) $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 # SUNDIALS 6 on bookworm ships no pkg-config file; libsundials_cvode holds the
 # dense/SPGMR linear solvers and the fixed-point solver too.
 LDLIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial -lm
@@ -26,7 +35,7 @@ COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/fmu.c couple
                common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c \
                tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/test_spheres.c tests/fluid/approach_harness.c \
-               tests/fluid/test_wall_approach.c tests/common/test_scene.c \
+               tests/fluid/test_wall_approach.c tests/common/test_scene.c tests/common/test_scene_bad.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
                tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
                tests/rigid/test_input.c tests/rigid/test_lubrication.c tests/rigid/test_walls.c
@@ -34,7 +43,7 @@ TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattic
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
 
-.PHONY: all run test validate bench report fmus clean deps
+.PHONY: all run test validate bench report fmus clean deps fuzz
 all: $(BUILD)/coupler $(BUILD)/run_tests $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so
 
 deps:
@@ -57,10 +66,12 @@ run: deps
 	$(PY) coupler/plot.py $(BUILD)/out/$(basename $(notdir $(SCENE))).h5
 	$(PY) coupler/check.py $(BUILD)/out/$(basename $(notdir $(SCENE))).h5
 
+# SAN=1 runs the CUnit suites only: pytest drives build/coupler and loads the
+# FMUs into Python, which would need libasan preloaded (README "Tests").
 test: deps
 	@$(MAKE) --no-print-directory all
-	OMP_NUM_THREADS=2 $(BUILD)/run_tests
-	$(PY) -m pytest -q -m "not validate" tests/python
+	$(SAN_ENV) OMP_NUM_THREADS=2 $(BUILD)/run_tests
+	$(if $(filter 1,$(SAN)),@echo "SAN=1: pytest not run (see README Tests)",$(PY) -m pytest -q -m "not validate" tests/python)
 
 validate: deps
 	@$(MAKE) --no-print-directory all
@@ -130,8 +141,38 @@ $(BUILD)/fmu/rigid.so: $(call fmu_obj,$(FMU_RIGID_SRC)) $(BUILD)/fmu/obj/fmi_ada
 
 fmus: $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so
 
+# Fuzzing the scene reader (README "Tests"): clang + libFuzzer with ASan and
+# UBSan, objects of its own under build/fuzz/ (never mixed with gcc's). New
+# corpus entries go to build/fuzz/corpus (seeded with models/*.yaml and
+# tests/fuzz/corpus), crashes/leaks/timeouts to build/fuzz/.
+FUZZ_SECONDS ?= 600
+FUZZ_CC      := clang
+FUZZ_SAN     := -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer
+FUZZ_CFLAGS  := -std=c11 -D_POSIX_C_SOURCE=200809L -O1 -g $(FUZZ_SAN) -Wall -Wextra -Wpedantic $(WERROR) \
+                $(shell pkg-config --cflags libcyaml yaml-0.1 2>/dev/null)
+FUZZ_SRC     := common/status.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
+                common/scene_build.c common/scene_check.c
+fuzz_obj = $(patsubst %.c,$(BUILD)/fuzz/obj/%.o,$(1))
+
+$(BUILD)/fuzz/obj/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link -MMD -MP -c $< -o $@
+
+$(BUILD)/fuzz/fuzz_scene: $(call fuzz_obj,$(FUZZ_SRC) tests/fuzz/fuzz_scene.c)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ $(shell pkg-config --libs libcyaml yaml-0.1 2>/dev/null) -lm
+
+fuzz:
+	@tools/install-deps.sh fuzz
+	@$(MAKE) --no-print-directory $(BUILD)/fuzz/fuzz_scene
+	@mkdir -p $(BUILD)/fuzz/corpus
+	@cp models/*.yaml $(BUILD)/fuzz/corpus/   # the scenes as seeds, beside tests/fuzz/corpus
+	$(BUILD)/fuzz/fuzz_scene -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 -max_len=16384 \
+	    -dict=tests/fuzz/scene.dict -artifact_prefix=$(BUILD)/fuzz/ -print_final_stats=1 \
+	    $(BUILD)/fuzz/corpus tests/fuzz/corpus
+
 clean:
 	rm -rf $(BUILD)
 
 -include $(shell find $(BUILD)/obj -name '*.d' 2>/dev/null)
 -include $(shell find $(BUILD)/fmu/obj -name '*.d' 2>/dev/null)
+-include $(shell find $(BUILD)/fuzz/obj -name '*.d' 2>/dev/null)

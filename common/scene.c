@@ -146,6 +146,18 @@ status_t scene_load(const char *path, const char *const *overrides, int noverrid
                          scene_override_node_kind(yaml_document_get_root_node(&doc)));
         goto done;
     }
+    {
+        bool oom = false;
+        const yaml_node_t *shared = scene_override_shared_collection(&doc, &oom);
+        if (oom) {
+            scene_report_oom(&c);
+            goto done;
+        }
+        if (shared != NULL) {
+            scene_report_alias(&c, shared, NULL);
+            goto done;
+        }
+    }
     scene_report_where_walk(&c, &doc, 1, "", 0);
     if (c.oom) {
         goto done;
@@ -196,6 +208,7 @@ status_t scene_load(const char *path, const char *const *overrides, int noverrid
     st = STATUS_OK;
 
 done:
+    scene_report_hidden(&c);
     if (c.oom) {
         st = STATUS_FATAL;
     }

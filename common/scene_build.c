@@ -296,6 +296,14 @@ static bool build_connections(ctx_t *c, const raw_scene_t *r, scene_t *s)
         for (int e = 0; e < 2; e++) {
             if (!isfinite(rc->spheres[e]) || rc->spheres[e] != floor(rc->spheres[e]) || rc->spheres[e] < 0 ||
                 rc->spheres[e] >= ns) {
+                if (ns == 0) {
+                    scene_report_bad(c, key,
+                                     "= %s: sphere index %s does not exist; allowed: none, the scene has no spheres "
+                                     "(connections join spheres of bodies)",
+                                     fmt_vec(rc->spheres, 2).s, fmt_num(rc->spheres[e]).s);
+                    ok = false;
+                    break;
+                }
                 scene_report_bad(c, key,
                                  "= %s: sphere index %s does not exist; allowed: integers in [0, %d] (global sphere "
                                  "indices: bodies in order, their spheres in order; the scene has %d spheres)",

@@ -24,7 +24,9 @@ bool scene_check_range(ctx_t *c, const char *key, double v, double lo, double hi
     bool ok = !isnan(v) && (isfinite(v) || (flags & ALLOW_INF)) && ((flags & LO_OPEN) ? v > lo : v >= lo) &&
               ((flags & HI_OPEN) ? v < hi : v <= hi);
     if (!ok) {
-        scene_report_bad(c, key, "= %s: out of range; allowed: %s%s, %s%s", fmt_num(v).s, (flags & LO_OPEN) ? "(" : "[",
+        /* an infinite end is inside the range only with ALLOW_INF */
+        scene_report_bad(c, key, "= %s: out of range; allowed: %s%s, %s%s", fmt_num(v).s,
+                         ((flags & LO_OPEN) || (isinf(lo) && !(flags & ALLOW_INF))) ? "(" : "[",
                          fmt_num(lo).s, fmt_num(hi).s,
                          ((flags & HI_OPEN) || (isinf(hi) && !(flags & ALLOW_INF))) ? ")" : "]");
     }

@@ -25,6 +25,8 @@ enum {
     SCENE_KEY_MAX = 256,    /* longest dotted key we track */
     SCENE_MSG_MAX = 1024,   /* one message body */
     SCENE_FRAMES_MAX = 32,  /* libcyaml backtrace depth we keep */
+    SCENE_VALUE_DEPTH_MAX = 32, /* nesting of an override value */
+    SCENE_MESSAGES_MAX = 50, /* messages logged by one load; the rest are counted in one last message */
 };
 
 static const double SCENE_MIN_RADIUS_CELLS = 1.5; /* smallest sphere radius, in cells of fluid.dx */
@@ -143,6 +145,8 @@ typedef struct {
     where_t *where;
     size_t nwhere, capwhere;
     int nerrors;
+    long nhidden, nhidden_errors; /* messages past SCENE_MESSAGES_MAX, not logged */
+    int nlogged;
     bool oom;
     /* What libcyaml reported while loading: the first error message and the
      * backtrace frames, innermost first (the order libcyaml prints them). */
@@ -222,6 +226,11 @@ void scene_report_where_free(ctx_t *c);
 /* `what` is NULL for the scene file itself ("FILE:LINE:COLUMN: ..."), else
  * names the override whose value failed to parse. */
 void scene_report_yaml_error(ctx_t *c, const yaml_parser_t *p, const char *what);
+/* A collection repeated through an alias (scene_override_shared_collection);
+ * `what` as for scene_report_yaml_error. */
+void scene_report_alias(ctx_t *c, const yaml_node_t *n, const char *what);
+/* The one message counting what SCENE_MESSAGES_MAX held back, if anything. */
+void scene_report_hidden(ctx_t *c);
 /* Step 4: libcyaml's log callback (log_ctx is the ctx_t), and the one message
  * for a failed load, naming the key. */
 void scene_report_cyaml_log(cyaml_log_t level, void *vctx, const char *fmt, va_list ap);
@@ -229,6 +238,8 @@ void scene_report_cyaml_error(ctx_t *c, cyaml_err_t err);
 
 /* ---- scene_override.c: steps 2 and 3 ---- */
 const char *scene_override_node_kind(const yaml_node_t *n); /* "a mapping", "a list" or "a scalar" */
+/* A mapping or list reached twice (a YAML alias of it), or NULL; *oom on failure to count. */
+const yaml_node_t *scene_override_shared_collection(yaml_document_t *doc, bool *oom);
 /* Applies one "dotted.key=value" to the tree; false (reported) when it cannot. */
 bool scene_override_apply(ctx_t *c, yaml_document_t *doc, const char *ov);
 /* Emits the tree as text into out; consumes doc, whether it succeeds or not. */

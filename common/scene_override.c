@@ -36,11 +36,32 @@ static bool text_append(text_t *t, const char *s, size_t n)
 /* ------------------------------------------------------------------------ */
 /* Step 2: overrides.                                                       */
 
-/* Deep copy of node `id` of `src` into `dst`; returns the new id or 0. */
+/* Counts one more reference to each of the nids nodes; returns the first
+ * collection reached for the second time, or NULL. */
+static const yaml_node_t *shared_child(yaml_document_t *doc, unsigned char *refs, size_t n, const int *ids, int nids)
+{
+    for (int j = 0; j < nids; j++) {
+        if (ids[j] < 1 || (size_t)ids[j] > n) {
+            continue;
+        }
+        const yaml_node_t *child = &doc->nodes.start[ids[j] - 1];
+        if (child->type != YAML_SCALAR_NODE && refs[ids[j]]++ > 0) {
+            return child;
+        }
+    }
+    return NULL;
+}
+
+/* Deep copy of node `id` of `src` into `dst`; returns the new id, 0 when
+ * memory runs out, or -1 when the value is nested deeper than
+ * SCENE_VALUE_DEPTH_MAX (no scene value is nested more than 4 deep). */
 static int node_copy(yaml_document_t *dst, yaml_document_t *src, int id, int depth)
 {
     yaml_node_t *n = yaml_document_get_node(src, id);
-    if (n == NULL || depth > 32) {
+    if (depth > SCENE_VALUE_DEPTH_MAX) {
+        return -1;
+    }
+    if (n == NULL) {
         return 0;
     }
     switch (n->type) {
@@ -52,7 +73,10 @@ static int node_copy(yaml_document_t *dst, yaml_document_t *src, int id, int dep
         /* n stays valid: it lives in src, and only dst grows. */
         for (yaml_node_item_t *it = n->data.sequence.items.start; out && it < n->data.sequence.items.top; it++) {
             int item = node_copy(dst, src, *it, depth + 1);
-            if (item == 0 || !yaml_document_append_sequence_item(dst, out, item)) {
+            if (item <= 0) {
+                return item;
+            }
+            if (!yaml_document_append_sequence_item(dst, out, item)) {
                 return 0;
             }
         }
@@ -62,8 +86,11 @@ static int node_copy(yaml_document_t *dst, yaml_document_t *src, int id, int dep
         int out = yaml_document_add_mapping(dst, n->tag, n->data.mapping.style);
         for (yaml_node_pair_t *p = n->data.mapping.pairs.start; out && p < n->data.mapping.pairs.top; p++) {
             int k = node_copy(dst, src, p->key, depth + 1);
-            int v = k ? node_copy(dst, src, p->value, depth + 1) : 0;
-            if (v == 0 || !yaml_document_append_mapping_pair(dst, out, k, v)) {
+            int v = k > 0 ? node_copy(dst, src, p->value, depth + 1) : k;
+            if (v <= 0) {
+                return v;
+            }
+            if (!yaml_document_append_mapping_pair(dst, out, k, v)) {
                 return 0;
             }
         }
@@ -101,8 +128,26 @@ static int override_value(ctx_t *c, yaml_document_t *doc, const char *ov, const 
                          ov);
         goto done;
     }
+    {
+        bool oom = false;
+        const yaml_node_t *shared = scene_override_shared_collection(&vdoc, &oom);
+        if (oom) {
+            scene_report_oom(c);
+            goto done;
+        }
+        if (shared != NULL) {
+            char what[SCENE_KEY_MAX + 32];
+            snprintf(what, sizeof what, "override '%s': the value at ", ov);
+            scene_report_alias(c, shared, what);
+            goto done;
+        }
+    }
     id = node_copy(doc, &vdoc, 1, 0);
-    if (id == 0) {
+    if (id < 0) {
+        scene_report_bad(c, "", "override '%s': the value is nested more than %d levels deep; allowed: a YAML value "
+                         "such as 1.5, cvode or [1, 2, 3]", ov, SCENE_VALUE_DEPTH_MAX);
+        id = 0;
+    } else if (id == 0) {
         scene_report_oom(c);
     }
 done:
@@ -113,6 +158,44 @@ done:
         yaml_parser_delete(&parser);
     }
     return id;
+}
+
+/* A mapping or list that the tree reaches more than once: through a YAML
+ * alias, or from inside itself (libyaml lets an alias name the collection it
+ * is in). Walks over such a tree, and libcyaml's load that replays every
+ * alias, expand it, exponentially when aliases nest ("billion laughs"), so
+ * the reader refuses them. Aliases of scalars expand to one node each and
+ * are allowed. One pass over the node array, no recursion. */
+const yaml_node_t *scene_override_shared_collection(yaml_document_t *doc, bool *oom)
+{
+    size_t n = (size_t)(doc->nodes.top - doc->nodes.start);
+    unsigned char *refs = calloc(n + 1, 1); /* by node id; 2 means "more than once" */
+    if (refs == NULL) {
+        *oom = true;
+        return NULL;
+    }
+    const yaml_node_t *shared = NULL;
+    refs[1] = n > 0; /* the root is reached once, as the root */
+    for (size_t i = 0; i < n && shared == NULL; i++) {
+        const yaml_node_t *node = &doc->nodes.start[i];
+        int ids[2];
+        if (node->type == YAML_SEQUENCE_NODE) {
+            for (const yaml_node_item_t *it = node->data.sequence.items.start;
+                 shared == NULL && it < node->data.sequence.items.top; it++) {
+                ids[0] = *it;
+                shared = shared_child(doc, refs, n, ids, 1);
+            }
+        } else if (node->type == YAML_MAPPING_NODE) {
+            for (const yaml_node_pair_t *p = node->data.mapping.pairs.start;
+                 shared == NULL && p < node->data.mapping.pairs.top; p++) {
+                ids[0] = p->key;
+                ids[1] = p->value;
+                shared = shared_child(doc, refs, n, ids, 2);
+            }
+        }
+    }
+    free(refs);
+    return shared;
 }
 
 const char *scene_override_node_kind(const yaml_node_t *n)

@@ -73,6 +73,18 @@ static void ctx_locate(const ctx_t *c, const char *key, char *buf, size_t size)
 
 static void ctx_vreport(ctx_t *c, status_t level, const char *key, const char *fmt, va_list ap)
 {
+    if (level >= STATUS_ERROR) {
+        c->nerrors++;
+    }
+    /* A scene with thousands of spheres can break a check thousands of times
+     * (or, for overlaps, n^2 times): the first messages say what is wrong,
+     * the rest are only counted (scene_report_hidden). */
+    if (c->nlogged >= SCENE_MESSAGES_MAX) {
+        c->nhidden++;
+        c->nhidden_errors += level >= STATUS_ERROR;
+        return;
+    }
+    c->nlogged++;
     char body[SCENE_MSG_MAX];
     vsnprintf(body, sizeof body, fmt, ap);
     char loc[SCENE_KEY_MAX + 64];
@@ -83,8 +95,14 @@ static void ctx_vreport(ctx_t *c, status_t level, const char *key, const char *f
     } else {
         log_msg(c->log, level, "scene", "%s: %s", loc, body);
     }
-    if (level >= STATUS_ERROR) {
-        c->nerrors++;
+}
+
+void scene_report_hidden(ctx_t *c)
+{
+    if (c->nhidden > 0) {
+        log_msg(c->log, c->nhidden_errors > 0 ? STATUS_ERROR : STATUS_WARNING, "scene",
+                "%s: %ld more messages not shown (%ld errors, %ld warnings); only the first %d are", c->file,
+                c->nhidden, c->nhidden_errors, c->nhidden - c->nhidden_errors, SCENE_MESSAGES_MAX);
     }
 }
 
@@ -218,6 +236,17 @@ void scene_report_yaml_error(ctx_t *c, const yaml_parser_t *p, const char *what)
         log_msg(c->log, STATUS_ERROR, "scene", "%s%s%zu:%zu: YAML syntax error: %s%s", loc,
                 what == NULL ? ":" : " at ", p->problem_mark.line + 1, p->problem_mark.column + 1, problem, context);
     }
+    c->nerrors++;
+}
+
+void scene_report_alias(ctx_t *c, const yaml_node_t *n, const char *what)
+{
+    const char *kind = n->type == YAML_MAPPING_NODE ? "mapping" : "list";
+    log_msg(c->log, STATUS_ERROR, "scene",
+            "%s%s%s%zu:%zu: YAML alias of a %s: the %s anchored here is used again through an alias (or inside "
+            "itself); allowed: aliases of single values only (write the %s out)",
+            c->file, what == NULL ? "" : ": ", what == NULL ? ":" : what, n->start_mark.line + 1,
+            n->start_mark.column + 1, kind, kind, kind);
     c->nerrors++;
 }
 

@@ -5,5 +5,10 @@
 /* Adds the "scene" suites to the current CUnit registry. The caller has
  * called CU_initialize_registry; errors are left in CU_get_error(). */
 void scene_register_tests(void);
+/* Adds the table of bad scenes (test_scene_bad.c). */
+void scene_bad_register_tests(void);
+
+/* The base scene of the scene tests (26 lines, loads with STATUS_OK). */
+extern const char scene_test_base[];
 
 #endif

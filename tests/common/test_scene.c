@@ -20,8 +20,9 @@
 #include <string.h>
 #include <unistd.h>
 
-/* The base scene: loads with STATUS_OK. Line numbers are used below. */
-static const char BASE[] =
+/* The base scene: loads with STATUS_OK. Line numbers are used below and in
+ * test_scene_bad.c. */
+const char scene_test_base[] =
     "domain:\n"                                                           /* 1 */
     "  size: [1.0e-3, 1.0e-3, 2.0e-3]\n"                                  /* 2 */
     "  faces:\n"                                                          /* 3 */
@@ -48,6 +49,7 @@ static const char BASE[] =
     "contacts: {model: spring_dashpot, contact_time: 1.0e-3}\n"           /* 24 */
     "rigid: {integrator: cvode, gravity: [0, 0, -9.81]}\n"                /* 25 */
     "run: {end_time: 0.1}\n";                                             /* 26 */
+#define BASE scene_test_base
 
 /* Only the required keys: every other value comes from a default. */
 static const char MINIMAL[] =
