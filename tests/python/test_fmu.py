@@ -267,6 +267,10 @@ def test_fmu_carries_documentation_and_a_whole_ns_default_step(coupler, tmp_path
     assert p.returncode == 0, p.stderr
     scene = yaml.safe_load((MODELS / "sinking_sphere.yaml").read_text())["fluid"]
     for name in ("fluid", "rigid"):
+        # cross-check rules (README "FMUs"): valid (fmpy's validator in place of the FMU
+        # Compliance Checker), at most 10 MB
+        assert validate_fmu(str(d / f"{name}.fmu")) == []
+        assert (d / f"{name}.fmu").stat().st_size < 10e6
         root, _, _ = model_structure(d / f"{name}.fmu")
         ex = root.find("DefaultExperiment")
         h = float(ex.get("stepSize"))
