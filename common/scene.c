@@ -46,6 +46,15 @@ const char *face_type_name(face_type_t t)
     return "unknown";
 }
 
+int scene_whole_ns(double t, long long *ns)
+{
+    const double n = nearbyint(t * 1e9);
+    if (ns != NULL) {
+        *ns = isfinite(n) && fabs(n) < 9e18 ? (long long)n : 0;
+    }
+    return isfinite(n) && n >= 1.0 && fabs(t * 1e9 - n) <= 1e-9 * n;
+}
+
 int scene_total_spheres(const scene_t *s)
 {
     int n = 0;

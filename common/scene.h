@@ -52,8 +52,9 @@ typedef struct {
     double viscosity;           /* kinematic, m^2/s */
     double dx;                  /* m; derived from cells_per_radius when that is given */
     double cells_per_radius;    /* 0 when dx is given */
-    double tau;                 /* relaxation time; derived from dt when that is given */
-    double dt;                  /* s; derived from tau when tau is given */
+    double tau;                 /* relaxation time used; derived from dt when that is given */
+    double dt;                  /* s; derived from tau when tau is given (a whole number of ns, below) */
+    double tau_requested;       /* fluid.tau as the scene gives it; 0 when the scene gives fluid.dt */
     collision_t collision;
     double magic;               /* TRT magic parameter Lambda */
     double body_force[3];       /* force per volume, N/m^3 */
@@ -158,5 +159,17 @@ status_t scene_load(const char *path, const char *const *overrides, int noverrid
 void scene_free(scene_t *s);
 int scene_total_spheres(const scene_t *s);
 const char *face_type_name(face_type_t t);
+
+/* Time steps in whole nanoseconds, for masters that count time in integer ns
+ * (libcosim / OSP). When the scene gives fluid.tau, scene_load rounds
+ * dt = (tau - 1/2) dx^2 / (3 nu) to a whole number of ns and sets
+ * tau = 1/2 + 3 nu dt / dx^2 (nu exact, tau moved by ~1e-5), unless that
+ * moves tau - 1/2 by more than SCENE_DT_ROUND_MAX (dt below ~50 ns): then dt
+ * is kept exact and `coupler check` warns. A given fluid.dt is used as given
+ * (check warns when it is not whole ns). README "FMUs", models/README.md. */
+#define SCENE_DT_ROUND_MAX 1e-2
+/* Whether t (s) is a whole number of nanoseconds within 1e-9 relative (the
+ * FMUs' tolerance on communication points); *ns the nearest count (may be NULL). */
+int scene_whole_ns(double t, long long *ns);
 
 #endif

@@ -190,6 +190,27 @@ static double smallest_radius(const scene_t *s)
     return rmin;
 }
 
+/* The step of a scene that gives tau: dt = (tau - 1/2) dx^2 / (3 nu) rounded
+ * to a whole number of nanoseconds, tau then set from it (tau = 1/2 + 3 nu
+ * dt / dx^2), so that masters counting time in integer ns (libcosim/OSP) can
+ * step the FMUs (scene.h). nu and dx stay exact: the physics is unchanged,
+ * only the numerical parameter tau moves, by at most 0.5 ns / dt of tau - 1/2
+ * (1e-5 for the default scene). When that exceeds SCENE_DT_ROUND_MAX (dt
+ * below ~50 ns) dt stays exact and `coupler check` warns. A dt that is whole
+ * already (within round-off) leaves tau bit-identical. */
+static double whole_ns_step(scene_fluid_t *f)
+{
+    const double dt = (f->tau - 0.5) * f->dx * f->dx / (3.0 * f->viscosity);
+    const double ns = dt * 1e9, n = nearbyint(ns);
+    if (!(n >= 1.0) || fabs(ns - n) > SCENE_DT_ROUND_MAX * ns) {
+        return dt;
+    }
+    if (fabs(ns - n) > 1e-12 * n) {
+        f->tau = 0.5 + 3.0 * f->viscosity * (n / 1e9) / (f->dx * f->dx);
+    }
+    return n / 1e9;
+}
+
 /* Resolution and time step. Returns true when dx (and, via *dt_ok, dt) are usable. */
 static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
 {
@@ -248,13 +269,14 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
         scene_report_bad(c, r->tau ? "fluid.tau" : "fluid", "%s; allowed: exactly one of fluid.tau and fluid.dt (s)",
                          r->tau ? "both fluid.tau and fluid.dt are given" : "neither fluid.tau nor fluid.dt is given");
     } else if (r->tau != NULL) {
-        f->tau = *r->tau;
+        f->tau = f->tau_requested = *r->tau;
         /* tau = 1/2 + 3 nu dt / dx^2 (lattice viscosity nu_lb = (tau - 1/2)/3) */
         if (scene_check_range(c, "fluid.tau", f->tau, 0.5, INFINITY, LO_OPEN) && dx_ok && nu_ok) {
-            f->dt = (f->tau - 0.5) * f->dx * f->dx / (3.0 * f->viscosity);
+            f->dt = whole_ns_step(f);
             *dt_ok = true;
         }
     } else {
+        f->tau_requested = 0.0;
         f->dt = *r->dt;
         if (scene_check_range(c, "fluid.dt", f->dt, 0, INFINITY, LO_OPEN) && dx_ok && nu_ok) {
             f->tau = 0.5 + 3.0 * f->viscosity * f->dt / (f->dx * f->dx);

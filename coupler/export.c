@@ -7,8 +7,22 @@
  *   modelDescription.xml          FMI 2.0 Co-Simulation, generated per scene
  *   binaries/linux64/<id>.so      build/fmu/<id>.so
  *   resources/scene.yaml          the scene text after --set overrides
+ *   documentation/index.html      what the FMU is, its step, its variables
+ *                                 (FMI 2.0 section 2.3), generated per scene
  * The GUID is a hash of that scene text (fmi_guid), checked by
  * fmi2Instantiate. A scene without free bodies gets no rigid.fmu.
+ *
+ * ModelStructure (FMI 2.0.x section 2.2.8) says what each output depends on.
+ * Outputs: the dependencies hold at communication points, where the knowns
+ * are the inputs; the components apply their inputs only inside fmi2DoStep
+ * and refresh their outputs only after it (common/fmi_adapter.c), so no
+ * output depends directly on an input: dependencies="" (no direct
+ * feedthrough; a master that connects fluid and rigid both ways sees no
+ * algebraic loop). InitialUnknowns: every output (all are
+ * initial="calculated"); in Initialization Mode the knowns are the inputs and
+ * the parameters (initial="exact"). The component is created from the scene
+ * with the parameters that override scene keys applied, before any input is
+ * used, so the dependencies are those parameters and never an input.
  *
  * Order: build every description and check DIR and the libraries first;
  * only then write, so a failure leaves nothing behind (libzip writes to a
@@ -16,6 +30,7 @@
 #include "export.h"
 
 #include "../common/fmi_adapter.h"
+#include "version.h"
 
 #include <errno.h>
 #include <libxml/tree.h>
@@ -34,14 +49,22 @@ typedef struct {
     const fmi_model_t *model;
     fmi_vars_t vars;
     xmlChar *xml; /* modelDescription.xml */
+    char *doc;    /* documentation/index.html */
+    size_t doc_len;
     int xml_len;
     char lib[4096]; /* path of the shared library */
     char out[4096]; /* path of the .fmu */
 } fmu_job_t;
 
+/* The shortest %g text that reads back as x (1.6667e-05, not 1.6667000000000002e-05). */
 static const char *fmt_num(double x, char *buf, size_t n)
 {
-    snprintf(buf, n, "%.17g", x);
+    for (int digits = 15; digits <= 17; digits++) {
+        snprintf(buf, n, "%.*g", digits, x);
+        if (strtod(buf, NULL) == x) {
+            break;
+        }
+    }
     return buf;
 }
 
@@ -149,6 +172,25 @@ static int add_variable(xmlNodePtr list, const fmi_var_t *v, int vr)
     return 1;
 }
 
+/* "i j k": the 1-based indices of the parameters that override scene keys
+ * (String parameters such as output.fields only name files); NULL when
+ * memory runs out. The caller frees it. */
+static char *initial_dependencies(const fmi_vars_t *vs)
+{
+    size_t cap = (size_t)vs->n * 12 + 1, len = 0;
+    char *deps = malloc(cap);
+    if (deps == NULL) {
+        return NULL;
+    }
+    deps[0] = '\0';
+    for (int j = 0; j < vs->n; j++) {
+        if (vs->v[j].causality == FMI_PARAMETER && vs->v[j].key[0] != '\0') {
+            len += (size_t)snprintf(deps + len, cap - len, "%s%d", len > 0 ? " " : "", j + 1);
+        }
+    }
+    return deps;
+}
+
 /* modelDescription.xml for one model; 0 when libxml2 runs out of memory. */
 static int build_description(const scene_t *s, fmu_job_t *job)
 {
@@ -166,7 +208,8 @@ static int build_description(const scene_t *s, fmu_job_t *job)
     xmlDocSetRootElement(doc, root);
     snprintf(buf, sizeof buf, "%s_%s", name, m->identifier);
     if (!attr(root, "fmiVersion", "2.0") || !attr(root, "modelName", buf) || !attr(root, "guid", guid) ||
-        !attr(root, "description", m->description) || !attr(root, "generationTool", "coupler export") ||
+        !attr(root, "description", m->description) || !attr(root, "version", AGGLO_VERSION) ||
+        !attr(root, "generationTool", "agglo coupler export " AGGLO_VERSION) ||
         !attr(root, "variableNamingConvention", "structured") || !attr(root, "numberOfEventIndicators", "0")) {
         goto done;
     }
@@ -193,7 +236,8 @@ static int build_description(const scene_t *s, fmu_job_t *job)
             goto done;
         }
     }
-    /* one LBM time step is the natural communication step of both FMUs */
+    /* one LBM time step is the natural communication step of both FMUs; a
+     * whole number of ns for every scene that gives tau (common/scene.h) */
     xmlNodePtr ex = child(root, "DefaultExperiment");
     if (ex == NULL || !attr(ex, "startTime", "0") || !attr_num(ex, "stopTime", s->run.end_time) ||
         !attr_num(ex, "stepSize", s->fluid.dt)) {
@@ -214,6 +258,12 @@ static int build_description(const scene_t *s, fmu_job_t *job)
     if (outs == NULL || init == NULL) {
         goto done;
     }
+    /* the knowns the initial outputs depend on: the parameters that override
+     * scene keys (ScalarVariable indices, ascending); never an input */
+    char *init_deps = initial_dependencies(vs);
+    if (init_deps == NULL) {
+        goto done;
+    }
     int nout = 0;
     for (int j = 0; j < vs->n; j++) {
         if (vs->v[j].causality != FMI_OUTPUT) {
@@ -221,10 +271,13 @@ static int build_description(const scene_t *s, fmu_job_t *job)
         }
         nout++;
         xmlNodePtr u = child(outs, "Unknown"), w = child(init, "Unknown");
-        if (u == NULL || w == NULL || !attr_num(u, "index", j + 1) || !attr_num(w, "index", j + 1)) {
+        if (u == NULL || w == NULL || !attr_num(u, "index", j + 1) || !attr(u, "dependencies", "") ||
+            !attr_num(w, "index", j + 1) || !attr(w, "dependencies", init_deps)) {
+            free(init_deps);
             goto done;
         }
     }
+    free(init_deps);
     if (nout == 0) {
         /* the schema wants at least one Unknown in a present element */
         xmlUnlinkNode(outs);
@@ -237,6 +290,91 @@ static int build_description(const scene_t *s, fmu_job_t *job)
 done:
     xmlFreeDoc(doc);
     return ok;
+}
+
+static void html_text(FILE *f, const char *text)
+{
+    for (const char *c = text; *c != '\0'; c++) {
+        switch (*c) {
+        case '<': fputs("&lt;", f); break;
+        case '>': fputs("&gt;", f); break;
+        case '&': fputs("&amp;", f); break;
+        case '"': fputs("&quot;", f); break;
+        default: fputc(*c, f);
+        }
+    }
+}
+
+/* documentation/index.html (FMI 2.0 section 2.3, the FMU's documentation):
+ * what the FMU is and for which scene, the step and how to use it, the
+ * dependencies, every variable, the scene it carries. Deterministic (no
+ * date), like the rest of the FMU. 0 when memory runs out. */
+static int build_documentation(const scene_t *s, fmu_job_t *job)
+{
+    const fmi_model_t *m = job->model;
+    const fmi_vars_t *vs = &job->vars;
+    char name[300], num[40], num2[40];
+    scene_name(s, name, sizeof name);
+    FILE *f = open_memstream(&job->doc, &job->doc_len);
+    if (f == NULL) {
+        return 0;
+    }
+    fprintf(f, "<!DOCTYPE html>\n<html lang=\"en\">\n<head><meta charset=\"utf-8\"><title>");
+    html_text(f, name);
+    fprintf(f, "_%s</title></head>\n<body>\n<h1>", m->identifier);
+    html_text(f, name);
+    fprintf(f, "_%s</h1>\n<p>", m->identifier);
+    html_text(f, m->description);
+    fprintf(f, ".</p>\n<p>An FMI 2.0 Co-Simulation FMU for linux64, generated by agglo coupler export %s from "
+               "the scene <code>", AGGLO_VERSION);
+    html_text(f, s->path);
+    fprintf(f, "</code> (carried as <code>resources/scene.yaml</code>, below; the GUID is a hash of it). The "
+               "fluid and the rigid FMU of one scene are coupled by connecting every input to the output of "
+               "the other FMU with the same name; all values are SI.</p>\n<h2>Step</h2>\n<p>DefaultExperiment: "
+               "start 0, stop %s s, step size %s s",
+            fmt_num(s->run.end_time, num, sizeof num), fmt_num(s->fluid.dt, num2, sizeof num2));
+    long long ns;
+    if (scene_whole_ns(s->fluid.dt, &ns)) {
+        fprintf(f, " = %lld ns, one LBM time step: a whole number of nanoseconds, so masters that count time "
+                   "in integer ns (libcosim/OSP) can use it.",
+                ns);
+    } else {
+        fprintf(f, ", one LBM time step; not a whole number of nanoseconds: masters that count time in integer "
+                   "ns (libcosim/OSP) cannot step this FMU.");
+    }
+    fprintf(f, " %s</p>\n", m->check_step != NULL
+                                ? "A communication step must be a whole number of LBM steps; the inputs are held "
+                                  "over it."
+                                : "Any communication step h &gt; 0 is accepted.");
+    fprintf(f, "<h2>Dependencies</h2>\n<p>No output depends directly on an input: inputs act only through "
+               "fmi2DoStep, outputs are those of the last communication point (ModelStructure Outputs: "
+               "dependencies=\"\"). The initial outputs depend on the parameters only.</p>\n");
+    fprintf(f, "<h2>Variables</h2>\n<table border=\"1\">\n<tr><th>name</th><th>causality</th><th>type</th>"
+               "<th>unit</th><th>start</th><th>description</th></tr>\n");
+    static const char *const causality[] = {"parameter", "input", "output"};
+    static const char *const type[] = {"Real", "Integer", "Boolean", "String"};
+    for (int j = 0; j < vs->n; j++) {
+        const fmi_var_t *v = &vs->v[j];
+        fprintf(f, "<tr><td><code>");
+        html_text(f, v->name);
+        fprintf(f, "</code></td><td>%s</td><td>%s</td><td>%s</td><td>", causality[v->causality], type[v->type],
+                v->unit != NULL ? v->unit : "");
+        if (v->causality != FMI_OUTPUT) {
+            fputs(v->type == FMI_STRING ? "\"\"" : fmt_num(v->start, num, sizeof num), f);
+        }
+        fprintf(f, "</td><td>");
+        html_text(f, v->description);
+        fprintf(f, "</td></tr>\n");
+    }
+    fprintf(f, "</table>\n<h2>Scene (resources/scene.yaml)</h2>\n<pre>");
+    html_text(f, s->text);
+    fprintf(f, "</pre>\n<p>More: the FMUs section of the agglo README and models/README.md (the scene keys).</p>\n"
+               "</body>\n</html>\n");
+    int ok = !ferror(f);
+    if (fclose(f) != 0) {
+        ok = 0;
+    }
+    return ok && job->doc != NULL;
 }
 
 static int readable_file(const char *path)
@@ -280,6 +418,8 @@ static int write_fmu(const scene_t *s, const fmu_job_t *job, const log_t *log)
     int ok = zip_dir_add(z, "binaries/", ZIP_FL_ENC_UTF_8) >= 0 &&
              zip_dir_add(z, "binaries/linux64/", ZIP_FL_ENC_UTF_8) >= 0 &&
              zip_dir_add(z, "resources/", ZIP_FL_ENC_UTF_8) >= 0 &&
+             zip_dir_add(z, "documentation/", ZIP_FL_ENC_UTF_8) >= 0 &&
+             zip_add_buffer(z, "documentation/index.html", job->doc, job->doc_len) &&
              zip_add_buffer(z, "modelDescription.xml", job->xml, (size_t)job->xml_len) &&
              zip_add_buffer(z, "resources/scene.yaml", s->text, strlen(s->text)) &&
              (lib = zip_source_file(z, job->lib, 0, -1)) != NULL;
@@ -327,8 +467,8 @@ int export_fmus(const scene_t *scene, const char *dir, const char *lib_dir, int 
                     strerror(errno));
             goto done;
         }
-        if (!build_description(scene, job)) {
-            log_msg(log, STATUS_ERROR, CAT, "out of memory building modelDescription.xml of %s",
+        if (!build_description(scene, job) || !build_documentation(scene, job)) {
+            log_msg(log, STATUS_ERROR, CAT, "out of memory building modelDescription.xml or documentation of %s",
                     models[k]->identifier);
             goto done;
         }
@@ -372,6 +512,7 @@ done:
     for (int k = 0; k < 2; k++) {
         fmi_vars_free(&jobs[k].vars);
         xmlFree(jobs[k].xml);
+        free(jobs[k].doc);
     }
     return rc;
 }

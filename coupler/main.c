@@ -82,6 +82,47 @@ static void default_output(const char *scene, char *buf, size_t n)
     strncat(buf, ".h5", n - strlen(buf) - 1);
 }
 
+/* The dt and tau lines of `check`: dt in whole nanoseconds (what masters that
+ * count time in integer ns, libcosim/OSP, need; common/scene.h) and the tau
+ * used against the one requested. Returns the number of warnings. */
+static int check_step_ns(const scene_t *s, const units_t *u, const log_t *log)
+{
+    const scene_fluid_t *f = &s->fluid;
+    long long ns;
+    const int whole = scene_whole_ns(f->dt, &ns);
+    if (whole) {
+        printf("  dt                 %.6g s = %lld ns (a whole number of ns)\n", u->dt, ns);
+    } else {
+        printf("  dt                 %.6g s = %.12g ns (not a whole number of ns)\n", u->dt, f->dt * 1e9);
+    }
+    printf("  tau                %.6g (%s)\n", u->tau, f->collision == COLLISION_TRT ? "TRT" : "BGK");
+    if (f->tau_requested > 0.0 && f->tau != f->tau_requested) {
+        printf("  tau requested      %.9g (used %.9g, relative change %+.3g: dt rounded to whole ns)\n",
+               f->tau_requested, f->tau, (f->tau - f->tau_requested) / f->tau_requested);
+    } else if (f->tau_requested > 0.0) {
+        printf("  tau requested      %.9g (used as given)\n", f->tau_requested);
+    }
+    if (whole) {
+        return 0;
+    }
+    if (f->tau_requested > 0.0) {
+        log_msg(log, STATUS_WARNING, "step",
+                "%s: fluid.tau = %g gives dt = %.6g s = %.4g ns; rounding it to a whole number of ns would move "
+                "tau - 1/2 by more than %g, so dt is kept exact: masters that count time in integer "
+                "nanoseconds (libcosim/OSP) cannot step these FMUs. To run them there, give fluid.dt as a "
+                "whole number of ns instead of fluid.tau (e.g. fluid.dt = %.0fe-9), or a coarser fluid.dx or a "
+                "larger fluid.tau (dt >= 50 ns is always rounded)",
+                s->path, f->tau_requested, f->dt, f->dt * 1e9, SCENE_DT_ROUND_MAX, fmax(1.0, nearbyint(f->dt * 1e9)));
+    } else {
+        log_msg(log, STATUS_WARNING, "step",
+                "%s: fluid.dt = %.12g s is not a whole number of nanoseconds (%.12g ns): masters that count time in "
+                "integer ns (libcosim/OSP) cannot step these FMUs; allowed there: a whole number, e.g. fluid.dt = "
+                "%.0fe-9",
+                s->path, f->dt, f->dt * 1e9, fmax(1.0, nearbyint(f->dt * 1e9)));
+    }
+    return 1;
+}
+
 static int cmd_check(const scene_t *s, const log_t *log)
 {
     units_t u;
@@ -94,8 +135,7 @@ static int cmd_check(const scene_t *s, const log_t *log)
     printf("  grid               %d x %d x %d cells (%.4g M)\n", u.n[0], u.n[1], u.n[2],
            (double)u.n[0] * u.n[1] * u.n[2] / 1e6);
     printf("  dx                 %.6g m\n", u.dx);
-    printf("  dt                 %.6g s\n", u.dt);
-    printf("  tau                %.6g (%s)\n", u.tau, s->fluid.collision == COLLISION_TRT ? "TRT" : "BGK");
+    a.nwarnings += check_step_ns(s, &u, log);
     if (s->fluid.collision == COLLISION_TRT) {
         printf("  magic parameter    %.6g (omega- = %.6g)\n", s->fluid.magic, u.omega_minus);
     }

@@ -2,12 +2,12 @@
  * checked; a failure is reported with the file and the object. */
 #include "output.h"
 
+#include "version.h"
+
 #include <hdf5.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-#define VERSION "0.2.0"
 
 typedef struct {
     hid_t id, type;
@@ -269,7 +269,7 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
     const double grid[3] = {u->n[0], u->n[1], u->n[2]}, ranks = 1.0;
     st = attr_string(o, o->file, "scene", scene->text ? scene->text : "");
     st = status_worst(st, attr_string(o, o->file, "scene_file", scene->path ? scene->path : ""));
-    st = status_worst(st, attr_string(o, o->file, "version", VERSION));
+    st = status_worst(st, attr_string(o, o->file, "version", AGGLO_VERSION));
     st = status_worst(st, attr_string(o, o->file, "integrator",
                                       scene->rigid.integrator == INTEGRATOR_CVODE ? "cvode" : "verlet"));
     st = status_worst(st, attr_doubles(o, o->file, "dx", &u->dx, 1));

@@ -5,7 +5,9 @@
  * Variables (SI, structured names, global sphere index i: bodies in scene
  * order, their spheres in order):
  *   parameters  fluid.density, fluid.viscosity, fluid.tau (or fluid.dt when
- *               the scene gives dt), fluid.body_force.x|y|z
+ *               the scene gives dt), fluid.body_force.x|y|z; fluid.tau is
+ *               the requested value (the scene key it overrides): the scene
+ *               reader rounds dt to whole ns and adjusts tau (common/scene.h)
  *   inputs      sphere[i].position|velocity|angular_velocity.x|y|z, only for
  *               spheres of free bodies (the fluid moves fixed and prescribed
  *               spheres itself); start values are the scene's initial state
@@ -125,8 +127,8 @@ static status_t fluid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                         "kinematic viscosity") ||
         !(has_dt ? fmi_vars_param(&vs, "fluid.dt", "fluid.dt", -1, "s", f->dt, 0.0, inf, FMI_LO_OPEN,
                                   "LBM time step (sets tau)")
-                 : fmi_vars_param(&vs, "fluid.tau", "fluid.tau", -1, NULL, f->tau, 0.5, inf, FMI_LO_OPEN,
-                                  "BGK/TRT relaxation time (sets the LBM time step)"))) {
+                 : fmi_vars_param(&vs, "fluid.tau", "fluid.tau", -1, NULL, f->tau_requested, 0.5, inf, FMI_LO_OPEN,
+                                  "BGK/TRT relaxation time as requested (dt rounded to whole ns, tau adjusted)"))) {
         st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
         goto done;
     }

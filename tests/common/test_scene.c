@@ -326,6 +326,55 @@ static void test_derived(void)
     scene_free(s);
 }
 
+/* The step is a whole number of nanoseconds (common/scene.h, README "FMUs"):
+ * libcosim counts time in integer ns, so 1.6666...e-5 s would become 16667 ns,
+ * a step the fluid refuses. dt = (tau - 1/2) dx^2 / (3 nu) is rounded and tau
+ * set back from it, nu and dx exact; a dt below ~50 ns is kept exact; a
+ * given dt is used as given. */
+static void test_whole_ns_step(void)
+{
+    capture_t cap;
+    scene_t *s = NULL;
+    CU_ASSERT_EQUAL_FATAL(load(BASE, NULL, 0, &cap, &s), STATUS_OK);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.dt, 6.25e-5, 0); /* whole already (62500 ns): tau untouched */
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau, 0.8, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau_requested, 0.8, 0);
+    scene_free(s);
+    s = NULL;
+    const char *const ov1[] = {"fluid.dx=2.0e-5", "fluid.tau=1.0"};
+    CU_ASSERT_EQUAL_FATAL(load(BASE, ov1, 2, &cap, &s), STATUS_OK);
+    /* exact dt = 0.5 * 4e-10 / 3e-6 = 66666.67 ns -> 66667 ns */
+    long long ns = 0;
+    CU_ASSERT_TRUE(scene_whole_ns(s->fluid.dt, &ns));
+    CU_ASSERT_EQUAL(ns, 66667);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.dt, 66667e-9, 1e-20);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau_requested, 1.0, 0);
+    /* tau = 1/2 + 3 nu dt / dx^2 = 0.5 + 3e-6 * 66667e-9 / 4e-10 = 1.0000025 */
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau, 1.0000025, 1e-12);
+    CU_ASSERT_TRUE(s->fluid.tau != 1.0);
+    scene_free(s);
+    s = NULL;
+    /* dx 2e-7 at tau 0.55: 0.667 ns; rounding would move tau - 1/2 by 50%: dt stays exact (check warns) */
+    const char *const ov2[] = {"fluid.dx=2.0e-7", "fluid.tau=0.55"};
+    CU_ASSERT_EQUAL_FATAL(load(MINIMAL, ov2, 2, &cap, &s), STATUS_OK);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau, 0.55, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.dt, 0.05 * 4e-14 / 3e-6, 1e-24);
+    CU_ASSERT_FALSE(scene_whole_ns(s->fluid.dt, NULL));
+    scene_free(s);
+    s = NULL;
+    /* a given dt is never changed, whole or not */
+    const char *const ov3[] = {"fluid={density: 1000.0, viscosity: 1.0e-6, dx: 2.5e-5, dt: 1.23456789e-5}"};
+    CU_ASSERT_EQUAL_FATAL(load(BASE, ov3, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.dt, 1.23456789e-5, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau_requested, 0.0, 0);
+    CU_ASSERT_FALSE(scene_whole_ns(s->fluid.dt, NULL));
+    CU_ASSERT_TRUE(scene_whole_ns(1e-5, NULL));
+    CU_ASSERT_TRUE(scene_whole_ns(3 * 16667e-9, NULL));
+    CU_ASSERT_FALSE(scene_whole_ns(1.0 / 60000.0, NULL));
+    CU_ASSERT_FALSE(scene_whole_ns(0.4e-9, NULL));
+    scene_free(s);
+}
+
 /* --set: dotted keys, list indices, lists as values, created keys. */
 static void test_overrides(void)
 {
@@ -346,7 +395,8 @@ static void test_overrides(void)
     };
     CU_ASSERT_EQUAL(load(BASE, ov, 11, &cap, &s), STATUS_OK);
     CU_ASSERT_PTR_NOT_NULL_FATAL(s);
-    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau, 1.5, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau_requested, 1.5, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.tau, 1.5, 1e-5); /* dt 208333.3 ns rounded to whole ns */
     CU_ASSERT_EQUAL(s->rigid.integrator, INTEGRATOR_VERLET);
     CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].density, 3000, 0);
     CU_ASSERT_DOUBLE_EQUAL(s->domain.size[2], 1e-3, 0);
@@ -743,6 +793,7 @@ void scene_register_tests(void)
         {"base scene", test_base_scene},
         {"defaults", test_defaults},
         {"derived dx and tau", test_derived},
+        {"step in whole nanoseconds", test_whole_ns_step},
         {"overrides", test_overrides},
         {"warnings", test_warnings},
         {"repeatable", test_repeatable},

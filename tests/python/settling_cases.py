@@ -54,6 +54,12 @@ def _f(x):
     return float(f"{x:.12g}")
 
 
+def _whole_ns(dt):
+    """dt rounded to a whole number of nanoseconds, as every scene's step is (README "FMUs":
+    masters that count time in integer ns, libcosim/OSP, can then step the FMUs)."""
+    return round(dt * 1e9) / 1e9
+
+
 def settling_geometry(cells_per_d, height=None):
     """dx and the box in whole cells (rounded), optionally with a lower box height (m)."""
     dx = D_SPHERE / cells_per_d
@@ -83,7 +89,7 @@ def settling_scene(case, cells_per_d, height=None, release_gap=RELEASE_GAP, end_
     center = [_f(size[0] / 2), _f(size[1] / 2), _f(release_gap + a)]
     if center[2] + a > size[2]:
         raise ValueError(f"the box of height {size[2]} m does not hold the sphere released at {release_gap} m")
-    dt = U_LAT * dx / f["u_inf"]
+    dt = _whole_ns(U_LAT * dx / f["u_inf"])
     end = end_time if end_time else settling_end_time(case, release_gap)
     faces = {k: {"type": "no_slip"} for k in ("x_min", "x_max", "y_min", "y_max", "z_min", "z_max")}
     return {
@@ -188,7 +194,7 @@ def restitution_scene(st, ratio=10.0, cells_per_d=None, u_lat=None, lateral_d=4.
     nu = u * D / re
     n, ul = restitution_numerics(st, ratio, cells_per_d, u_lat)
     dx = D / n
-    dt = ul * dx / u
+    dt = _whole_ns(ul * dx / u)
     nl = int(round(lateral_d * n))
     nz = int(round((start_gap_d + 2.5) * n))
     a = D / 2

@@ -20,6 +20,26 @@ def test_check_prints_lattice_parameters(coupler):
     assert "6.25e-05" in p.stdout
 
 
+def test_check_reports_the_step_in_whole_nanoseconds(coupler, tmp_path):
+    """common/scene.h: tau 1 at dx 1e-5 m, nu 1e-6 m^2/s gives dt = 16666.67 ns, rounded to
+    16667 ns with tau = 1/2 + 3 nu dt / dx^2 = 1.00001; check says so, without a warning. A given
+    dt that is not whole ns, and a step too small to round, are warnings naming the remedy."""
+    p = run("check", MODELS / "sinking_sphere.yaml")
+    assert p.returncode == 0, p.stderr
+    assert "16667 ns (a whole number of ns)" in p.stdout
+    line = [l for l in p.stdout.splitlines() if "tau requested" in l][0]
+    assert "used 1.00001" in line and "+1e-05" in line
+    assert "step" not in p.stderr
+    text = (MODELS / "sinking_sphere.yaml").read_text().replace("  tau: 1.0", "  dt: 1.66666e-5")
+    (tmp_path / "s.yaml").write_text(text)
+    p = run("check", tmp_path / "s.yaml")
+    assert p.returncode == 0, p.stderr
+    assert "not a whole number of nanoseconds" in p.stderr and "fluid.dt = 16667e-9" in p.stderr
+    p = run("check", MODELS / "sinking_sphere.yaml", "--set", "fluid.dx=1e-7", "--set", "fluid.tau=0.6")
+    assert p.returncode == 0, p.stderr
+    assert "dt is kept exact" in p.stderr and "integer" in p.stderr
+
+
 def test_check_warns_on_high_mach(coupler):
     p = run("check", MODELS / "channel_poiseuille.yaml", "--set", "fluid.body_force=[8000, 0, 0]")
     assert p.returncode == 0

@@ -15,11 +15,12 @@ import zipfile
 import fmpy
 import numpy as np
 import pytest
+import yaml
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.validation import validate_fmu
 
-from conftest import run
+from conftest import MODELS, run
 
 SCENE = """\
 domain:
@@ -192,6 +193,99 @@ def test_variable_naming_contract(fmus):
     _, fv = variables(fmus["free"] / "rigid.fmu")
     assert not any(n.startswith("connection") for n in fv)  # only what the scene needs
     assert md.guid != fmpy.read_model_description(str(fmus["pair"] / "fluid.fmu")).guid
+
+
+def model_structure(fmu):
+    """Outputs and InitialUnknowns as {index: dependencies attribute or None}, and the
+    ScalarVariables in index order (1-based), read from the XML itself: fmpy's reader does not
+    keep an absent attribute apart from every detail a master relies on."""
+    with zipfile.ZipFile(fmu) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    svs = root.find("ModelVariables").findall("ScalarVariable")
+    ms = root.find("ModelStructure")
+    lists = {}
+    for name in ("Outputs", "InitialUnknowns"):
+        lists[name] = {int(u.get("index")): u.get("dependencies") for u in ms.find(name).findall("Unknown")}
+    return root, svs, lists
+
+
+@pytest.mark.parametrize("scene,fmu", [("free", "fluid"), ("free", "rigid"), ("fixed", "fluid"),
+                                       ("pair", "fluid"), ("pair", "rigid")])
+def test_model_structure_declares_no_direct_feedthrough(fmus, scene, fmu):
+    """FMI 2.0.x section 2.2.8 (ModelStructure): for Co-Simulation the dependencies of <Outputs>
+    hold at communication points, where the knowns are the inputs; an absent attribute means
+    "depends on every known", dependencies="" on none. Our inputs act only through fmi2DoStep, so
+    every output declares dependencies="" (a master connecting fluid and rigid both ways must see
+    no algebraic loop). <InitialUnknowns> lists exactly the outputs (all initial="calculated");
+    in Initialization Mode the knowns are the inputs and the parameters (initial="exact"): the
+    component is created from the scene with its parameters, so the list is those parameters
+    (every one that overrides a scene key, ascending) and never an input."""
+    root, svs, lists = model_structure(fmus[scene] / f"{fmu}.fmu")
+    causality = {k + 1: sv.get("causality") for k, sv in enumerate(svs)}
+    outputs = sorted(i for i, c in causality.items() if c == "output")
+    inputs = {i for i, c in causality.items() if c == "input"}
+    params = [i for i, c in causality.items() if c == "parameter" and svs[i - 1].find("String") is None]
+    assert outputs and list(lists["Outputs"]) == outputs
+    assert all(d == "" for d in lists["Outputs"].values()), lists["Outputs"]
+    assert list(lists["InitialUnknowns"]) == outputs
+    for index, deps in lists["InitialUnknowns"].items():
+        assert deps is not None, index
+        known = [int(x) for x in deps.split()]
+        assert known == params and not inputs & set(known), (index, deps)
+        assert all(svs[k - 1].get("initial") == "exact" for k in known)
+    # and so does fmpy's reader
+    md = fmpy.read_model_description(str(fmus[scene] / f"{fmu}.fmu"))
+    assert all(u.dependencies == [] for u in md.outputs)
+
+
+@pytest.mark.parametrize("fmu,inputs", [
+    ("fluid", {"sphere[0].position.x": 8.4e-5, "sphere[0].velocity.x": -2e-3, "sphere[0].angular_velocity.z": 5.0}),
+    ("rigid", {"sphere[0].force.x": 1e-9, "sphere[0].force.z": -3e-9, "sphere[0].torque.z": 1e-15}),
+])
+def test_outputs_do_not_change_with_inputs_between_steps(fmus, tmp_path, fmu, inputs):
+    """What dependencies="" promises: between two communication points, setting inputs leaves
+    every output as it was (an FMU with direct feedthrough would change them); the inputs act in
+    the next fmi2DoStep."""
+    s = Slave(fmus["free"] / f"{fmu}.fmu", tmp_path)
+    s.init()
+    s.fmu.doStep(0.0, DT)
+    before = s.outputs()
+    s.fmu.setReal([s.vr[n] for n in inputs], list(inputs.values()))
+    np.testing.assert_array_equal(s.outputs(), before)
+    s.fmu.doStep(DT, DT)
+    assert not np.array_equal(s.outputs(), before)
+    s.close()
+
+
+def test_fmu_carries_documentation_and_a_whole_ns_default_step(coupler, tmp_path):
+    """FMI 2.0 section 2.3: documentation/index.html is the entry point of an FMU's documentation;
+    the cross-check rules want a DefaultExperiment with the step size and the tool named. The
+    default scene's step, (tau - 1/2) dx^2 / (3 nu) = 16666.67 ns at tau 1, is rounded to 16667 ns
+    so that masters counting time in integer ns (libcosim) can take it (common/scene.h)."""
+    d = tmp_path / "fmus"
+    p = run("export", MODELS / "sinking_sphere.yaml", "-d", d)
+    assert p.returncode == 0, p.stderr
+    scene = yaml.safe_load((MODELS / "sinking_sphere.yaml").read_text())["fluid"]
+    for name in ("fluid", "rigid"):
+        # cross-check rules (README "FMUs"): valid (fmpy's validator in place of the FMU
+        # Compliance Checker), at most 10 MB
+        assert validate_fmu(str(d / f"{name}.fmu")) == []
+        assert (d / f"{name}.fmu").stat().st_size < 10e6
+        root, _, _ = model_structure(d / f"{name}.fmu")
+        ex = root.find("DefaultExperiment")
+        h = float(ex.get("stepSize"))
+        assert h * 1e9 == pytest.approx(round(h * 1e9), abs=1e-6) and round(h * 1e9) == 16667
+        exact = (scene["tau"] - 0.5) * scene["dx"] ** 2 / (3 * scene["viscosity"])
+        assert abs(h - exact) <= 0.5e-9
+        assert float(ex.get("stopTime")) == 0.06 and float(ex.get("startTime")) == 0.0
+        assert root.get("version") and "coupler export" in root.get("generationTool")
+        with zipfile.ZipFile(d / f"{name}.fmu") as z:
+            html = z.read("documentation/index.html").decode()
+        assert "16667 ns" in html and "sphere[0].position.x" in html and "dependencies" in html
+        assert html.lstrip().startswith("<!DOCTYPE html>") and html.rstrip().endswith("</html>")
+    md = fmpy.read_model_description(str(d / "fluid.fmu"))
+    tau = [v for v in md.modelVariables if v.name == "fluid.tau"][0]
+    assert float(tau.start) == scene["tau"]  # the requested value: setting it again changes nothing
 
 
 # --- simulation, each FMU alone --------------------------------------------------
