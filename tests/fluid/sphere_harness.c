@@ -38,7 +38,7 @@ static fluid_t *create(const scene_t *s)
 
 harness_drag_t harness_array_drag(int L, double a, double tau, collision_t op, boundary_scheme_t scheme, double off)
 {
-    harness_drag_t d = {NAN, NAN, NAN};
+    harness_drag_t d = {NAN, NAN, NAN, NAN, 0};
     scene_t s = test_box(L, L, L, tau, op);
     const double c[3] = {L / 2.0 - 0.5 + off, L / 2.0 - 0.5 + off, L / 2.0 - 0.5 + off};
     harness_one_sphere(&s, c, a, MOTION_FIXED);
@@ -77,6 +77,8 @@ harness_drag_t harness_array_drag(int L, double a, double tau, collision_t op, b
         const double U = usum / n;
         d.k_rel = (f[0] + fb * 4.0 / 3.0 * PI * a * a * a) / (6.0 * PI * nu * a * U) / sangani_acrivos(2.0 * a / L) -
                   1.0;
+        d.k_flux = fb * n / (6.0 * PI * nu * a * U) / sangani_acrivos(2.0 * a / L) - 1.0;
+        d.nsolid = n - nfluid;
         d.balance = f[0] / (fb * nfluid) - 1.0;
         d.mean_density = rsum / nfluid;
     }

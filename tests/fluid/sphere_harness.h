@@ -18,6 +18,8 @@ scene_body_t *harness_one_sphere(scene_t *s, const double c[3], double r, motion
  * density of the fluid cells. */
 typedef struct {
     double k_rel, balance, mean_density;
+    double k_flux; /* K / K_SA - 1 with F = f L^3, f the body force per volume */
+    long nsolid;   /* solid cells */
 } harness_drag_t;
 harness_drag_t harness_array_drag(int L, double a, double tau, collision_t op, boundary_scheme_t scheme, double off);
 
