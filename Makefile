@@ -34,8 +34,9 @@ RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c 
 COUPLER_SRC := coupler/main.c coupler/bench.c coupler/run.c coupler/fmu.c coupler/output.c coupler/export.c coupler/checkpoint.c coupler/summary.c coupler/resources.c \
                common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c \
-               tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/test_spheres.c tests/fluid/approach_harness.c \
-               tests/fluid/test_wall_approach.c tests/common/test_scene.c tests/common/test_scene_bad.c \
+               tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/drag_report.c tests/fluid/test_spheres.c \
+               tests/fluid/approach_harness.c tests/fluid/test_wall_approach.c tests/common/test_scene.c \
+               tests/common/test_scene_bad.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
                tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
                tests/rigid/test_input.c tests/rigid/test_lubrication.c tests/rigid/test_walls.c
@@ -43,7 +44,7 @@ TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattic
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
 
-.PHONY: all run test validate bench report fmus clean deps fuzz
+.PHONY: all run test validate bench report drag-report fmus clean deps fuzz
 all: $(BUILD)/coupler $(BUILD)/run_tests $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so
 
 deps:
@@ -86,7 +87,7 @@ $(BUILD)/rigid_report: $(LIB_OBJ) $(call obj,tests/rigid/rigid_report.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
 
 $(BUILD)/sphere_report: $(LIB_OBJ) $(call obj,tests/fluid/sphere_report.c tests/fluid/sphere_harness.c \
-                         tests/fluid/approach_harness.c tests/fluid/test_util.c)
+                         tests/fluid/drag_report.c tests/fluid/approach_harness.c tests/fluid/test_util.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
 
 report: deps
@@ -95,6 +96,16 @@ report: deps
 	mkdir -p $(BUILD)/report
 	$(BUILD)/sphere_report
 	$(PY) tools/plot_approach.py $(BUILD)/report
+
+# Drag of a fixed sphere at many positions in its cell (issue 11), every
+# scheme at radius 3 4 5 6 8 and tau 0.6 1 1.5: many hours on 2 cores;
+# QUICK=1: cli and multireflection at radius 4, tau 1 (~5 min). DRAG_ARGS
+# overrides the plan (e.g. DRAG_ARGS="schemes=cli radii=8 taus=1 positions=8").
+DRAG_ARGS ?= $(if $(QUICK),schemes=cli,multireflection radii=4 taus=1,)
+drag-report: deps
+	@$(MAKE) --no-print-directory $(BUILD)/sphere_report
+	mkdir -p $(BUILD)/report
+	$(BUILD)/sphere_report drag $(BUILD)/report $(DRAG_ARGS)
 
 # FMUs: the same sources built again with hidden visibility, so that a
 # shared library exports the fmi2* entry points only; common/fmi_adapter.c

@@ -25,8 +25,12 @@
  *                k0 = (1 - 2 delta - 2 delta^2)/c, k_1 = delta^2/c, plus the
  *                post-collision correction of their Eq. 5.7,
  *                -alpha (1 - w-/2) n_q^-, alpha = 4/c, n_q^- the antisymmetric
- *                non-equilibrium part of the pre-collision populations at x_f;
- *                it makes the scheme exact for parabolic profiles with TRT.
+ *                non-equilibrium part of the pre-collision populations at x_f,
+ *                taken against their own momentum (with Guo forcing: j - F,
+ *                spheres.c); it makes the scheme exact for parabolic profiles
+ *                with TRT at any delta and Lambda (1D channel, issue 11).
+ *                The MYLI fall-back below is not exact (its factor would
+ *                depend on delta); it is used only next to other solids.
  *                With only x_f - c_q fluid: MYLI (Yu's coefficients plus the
  *                correction -alpha w-/2 n_q^-, alpha = 2/(1+delta), Eq. 5.5).
  * Where a scheme needs a fluid node that is missing (x_f - c_q or

@@ -38,9 +38,37 @@ static fluid_t *create(const scene_t *s)
 
 harness_drag_t harness_array_drag(int L, double a, double tau, collision_t op, boundary_scheme_t scheme, double off)
 {
-    harness_drag_t d = {NAN, NAN, NAN};
+    const double p[3] = {off - 0.5, off - 0.5, off - 0.5};
+    return harness_array_drag_at(L, a, tau, op, scheme, p, NULL);
+}
+
+void harness_cell_positions(int n, unsigned long long seed, double (*p)[3])
+{
+    unsigned long long x = seed;
+    for (int i = 0; i < n; i++) {
+        for (int k = 0; k < 3; k++) {
+            if (i < 2) {
+                p[i][k] = 0.5 * i;
+                continue;
+            }
+            /* splitmix64 (Steele, Lea & Flood, OOPSLA 2014), top 53 bits as a double in [0, 1) */
+            x += 0x9E3779B97F4A7C15ULL;
+            unsigned long long z = x;
+            z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+            z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+            z ^= z >> 31;
+            p[i][k] = (double)(z >> 11) * 0x1.0p-53;
+        }
+    }
+}
+
+harness_drag_t harness_array_drag_at(int L, double a, double tau, collision_t op, boundary_scheme_t scheme,
+                                     const double p[3], long *steps)
+{
+    harness_drag_t d = {NAN, NAN, NAN, NAN, 0};
     scene_t s = test_box(L, L, L, tau, op);
-    const double c[3] = {L / 2.0 - 0.5 + off, L / 2.0 - 0.5 + off, L / 2.0 - 0.5 + off};
+    /* scene coordinate x is at lattice X = x + 1/2 (cell centres at integers): L/2 is a corner */
+    const double c[3] = {L / 2.0 + p[0], L / 2.0 + p[1], L / 2.0 + p[2]};
     harness_one_sphere(&s, c, a, MOTION_FIXED);
     s.fluid.boundary_scheme = scheme;
     s.fluid.force_method = FORCE_GALILEAN;
@@ -51,13 +79,18 @@ harness_drag_t harness_array_drag(int L, double a, double tau, collision_t op, b
         return d;
     }
     double fold = 0.0, f[3], t[3];
-    for (long n = 0; n < 200000; n += 100) {
+    long nsteps = 0;
+    while (nsteps < 200000) {
         test_run(fl, 100);
+        nsteps += 100;
         fluid_sphere_load_lattice(fl, 0, f, t);
         if (fabs(f[0] - fold) < 1e-10 * fabs(f[0])) {
             break;
         }
         fold = f[0];
+    }
+    if (steps != NULL) {
+        *steps = nsteps;
     }
     const int n = L * L * L;
     double *u = malloc(sizeof(double) * 3 * n), *rho = malloc(sizeof(double) * n);
@@ -77,6 +110,8 @@ harness_drag_t harness_array_drag(int L, double a, double tau, collision_t op, b
         const double U = usum / n;
         d.k_rel = (f[0] + fb * 4.0 / 3.0 * PI * a * a * a) / (6.0 * PI * nu * a * U) / sangani_acrivos(2.0 * a / L) -
                   1.0;
+        d.k_flux = fb * n / (6.0 * PI * nu * a * U) / sangani_acrivos(2.0 * a / L) - 1.0;
+        d.nsolid = n - nfluid;
         d.balance = f[0] / (fb * nfluid) - 1.0;
         d.mean_density = rsum / nfluid;
     }

@@ -18,8 +18,19 @@ scene_body_t *harness_one_sphere(scene_t *s, const double c[3], double r, motion
  * density of the fluid cells. */
 typedef struct {
     double k_rel, balance, mean_density;
+    double k_flux; /* K / K_SA - 1 with F = f L^3, f the body force per volume: needs no volume */
+    long nsolid;   /* solid cells */
 } harness_drag_t;
 harness_drag_t harness_array_drag(int L, double a, double tau, collision_t op, boundary_scheme_t scheme, double off);
+/* The same with the centre at a cell corner + p (cells, per axis): p = 0 a
+ * corner, p = (1/2, 1/2, 1/2) a cell centre; steps = steps run to steady state. */
+harness_drag_t harness_array_drag_at(int L, double a, double tau, collision_t op, boundary_scheme_t scheme,
+                                     const double p[3], long *steps);
+
+/* n positions of a sphere centre within a cell, as offsets from a cell corner
+ * in [0, 1)^3: the corner, the cell centre, then n - 2 drawn uniformly with a
+ * fixed generator (splitmix64 from seed), so that every run sees the same set. */
+void harness_cell_positions(int n, unsigned long long seed, double (*p)[3]);
 
 /* A sphere of radius a moved at constant velocity through a periodic (4a)^3
  * box. driven: a body force pushes the fluid the other way (starting at its

@@ -1,12 +1,9 @@
 /* sphere_report.c — the figures of the curved-boundary study (`make report`).
  *
- * For each boundary scheme x force variant x refill scheme x {BGK, TRT} at
- * sphere radius 5 and 8 cells it prints:
- *   drag error  K / K_SA - 1 of a fixed sphere in a simple cubic array
- *               (D/L = 1/2, Stokes flow, Sangani & Acrivos 1982), at a cell
- *               corner and averaged over 4 positions relative to the grid
- *               (the force variant and the refill do not act on a fixed
- *               sphere, so it is computed once per scheme and collision);
+ * `sphere_report drag DIR [...]` (`make drag-report`) writes the position study
+ * of the drag of a fixed sphere in a simple cubic array (drag_report.c) as
+ * DIR/drag.csv and DIR/drag.txt. For each boundary scheme x force variant x
+ * refill scheme x {BGK, TRT} at sphere radius 5 and 8 cells the other modes print:
  *   fluctuation std/mean of the drag on a sphere moved through a periodic
  *               box at constant velocity against a body-force driven flow
  *               (second half of 3000 steps), and the momentum drift per step
@@ -22,6 +19,7 @@
 #include "../../fluid/fluid.h"
 
 #include "approach_harness.h"
+#include "drag_report.h"
 #include "sphere_harness.h"
 #include "test_util.h"
 
@@ -60,8 +58,8 @@ static double step_cost(int with_sphere)
     return dt;
 }
 
-/* Usage: sphere_report [drag|moving|cost|all] [radius...]; default: all, radii 5 and 8.
- * The drag position average is done for radius 5 only (it costs 4 runs). */
+/* Usage: sphere_report [moving|cost|all] [radius...] (default: all, radii 5 and 8);
+ * sphere_report approach [DIR]; sphere_report drag DIR [key=value...] (drag_report.h). */
 /* The close approaches: per-step CSV curves and the window means. */
 static int report_approach(const char *dir)
 {
@@ -101,13 +99,13 @@ int main(int argc, char **argv)
     const char *what = argc > 1 ? argv[1] : "all";
     double rad[8] = {5.0, 8.0};
     int nr = 2;
-    if (argc > 2) {
+    if (argc > 2 && strcmp(what, "drag")) {
         nr = 0;
         for (int i = 2; i < argc && nr < 8; i++) {
             rad[nr++] = atof(argv[i]);
         }
     }
-    const int do_drag = !strcmp(what, "all") || !strcmp(what, "drag");
+    const int do_drag = !strcmp(what, "drag");
     const int do_moving = !strcmp(what, "all") || !strcmp(what, "moving");
     const int do_cost = !strcmp(what, "all") || !strcmp(what, "cost");
     if (!strcmp(what, "all") || !strcmp(what, "approach")) {
@@ -123,28 +121,17 @@ int main(int argc, char **argv)
     static const char *cname[] = {"bgk", "trt"};
     const double *radii = rad;
     if (do_drag) {
-    printf("# drag error of a fixed sphere, simple cubic array D/L = 1/2 (Sangani & Acrivos 1982), tau 0.8\n");
-    printf("%-6s %-16s %-5s %12s %14s %9s\n", "radius", "scheme", "coll", "err_corner%", "err_mean4pos%", "seconds");
-    for (int ri = 0; ri < nr; ri++) {
-        for (int sc = 0; sc < 5; sc++) {
-            for (int op = 0; op < 2; op++) {
-                const double t0 = omp_get_wtime();
-                const int L = (int)(4 * radii[ri]);
-                const double e0 = harness_array_drag(L, radii[ri], 0.8, op, sc, 0.5).k_rel;
-                double em = NAN;
-                if (radii[ri] <= 5.0) {
-                    const double offs[4] = {0.0, 0.15, 0.3, 0.5};
-                    em = 0.0;
-                    for (int k = 0; k < 4; k++) {
-                        em += (k == 3 ? e0 : harness_array_drag(L, radii[ri], 0.8, op, sc, offs[k]).k_rel) / 4.0;
-                    }
-                }
-                printf("%-6.0f %-16s %-5s %12.3f %14.3f %9.1f\n", radii[ri], sname[sc], cname[op], 100 * e0, 100 * em,
-                       omp_get_wtime() - t0);
-                fflush(stdout);
-            }
+        /* sphere_report drag DIR [schemes=.. radii=.. taus=.. positions=..] (drag_report.h) */
+        drag_plan_t plan;
+        const int bad = drag_plan_parse(&plan, argc > 3 ? argc - 3 : 0, argv + 3);
+        if (bad != 0) {
+            fprintf(stderr, "sphere_report: bad drag option '%s' (schemes=cli,multireflection,... radii=4,8 "
+                            "taus=0.6,1,1.5 positions=N, N from 2 to 256)\n", argv[3 + bad - 1]);
+            return 2;
         }
-    }
+        if (drag_report(argc > 2 ? argv[2] : "build/report", &plan) != 0) {
+            return 1;
+        }
     }
     if (do_moving) {
     printf("\n# drag fluctuation (std/mean) of a sphere moving through a periodic box, 3000 steps, tau 0.8\n");

@@ -14,6 +14,7 @@
  *   T = -8 pi mu a^3 Omega / (1 - phi - 1.95708 phi^(10/3)).
  * - Ray-sphere intersection (the paper's Eq. 5) against brute force. */
 #include "fluid_tests.h"
+#include "drag_report.h"
 #include "sphere_harness.h"
 #include "test_util.h"
 
@@ -233,6 +234,49 @@ static void test_dilute_array(void)
     CU_ASSERT(fabs(d.k_rel) < 0.005);
 }
 
+/* ---- drag at any position in the cell (issue 11) -------------------------- */
+
+/* The sphere of the array above at the corner, the cell centre and random
+ * places in its cell (harness_cell_positions, fixed seed), K by the flux
+ * definition (no volume needed) against Sangani & Acrivos (1982). Acceptance
+ * of issue 11 for the default scheme (meant to be multireflection, the least
+ * position dependent here; cli stays the default for now, README): radius 4,
+ * tau 0.6, 1 and 1.5, worst |error| <= 1% and |mean| <= 0.5% over 22 places. */
+static drag_stats_t position_errors(boundary_scheme_t scheme, double tau, int n)
+{
+    double e[32];
+    const drag_stats_t st = drag_positions(scheme, 4.0, tau, n, e, NULL);
+    printf("\n    K r=4 tau %.1f %s at %d places:", tau, scheme == BOUNDARY_CLI ? "cli" : "multireflection", n);
+    for (int i = 0; i < n && i < 6; i++) {
+        printf(" %+.2f", 100 * e[i]);
+    }
+    printf("%s %% (mean %+.2f, worst %.2f, spread %.2f)", n > 6 ? " ..." : "", 100 * st.mean, 100 * st.worst,
+           100 * st.spread);
+    return st;
+}
+
+/* make test: at 6 places (corner, centre, 4 random), radius 4, tau 1,
+ * multireflection depends less on the place than cli. */
+static void test_drag_any_position(void)
+{
+    const drag_stats_t mr = position_errors(BOUNDARY_MULTIREFLECTION, 1.0, 6);
+    const drag_stats_t cli = position_errors(BOUNDARY_CLI, 1.0, 6);
+    CU_ASSERT(mr.worst < cli.worst);
+    CU_ASSERT(mr.spread < cli.spread);
+}
+
+/* make validate: the acceptance bounds of issue 11 (not met yet: README,
+ * "Drag at any position in the cell"). */
+static void test_drag_any_position_acceptance(void)
+{
+    const double taus[3] = {0.6, 1.0, 1.5};
+    for (int i = 0; i < 3; i++) {
+        const drag_stats_t mr = position_errors(BOUNDARY_MULTIREFLECTION, taus[i], 22);
+        CU_ASSERT(mr.worst <= 0.01);
+        CU_ASSERT(fabs(mr.mean) <= 0.005);
+    }
+}
+
 /* ---- rotation ------------------------------------------------------------- */
 
 static void test_rotating_sphere_torque(void)
@@ -291,9 +335,14 @@ static void test_moving_sphere_fluctuation(void)
                                          5.0, 3000, 1);
     const moving_t best = moving_sphere(BOUNDARY_CLI, FORCE_GALILEAN, REFILL_EXTRAPOLATION, COLLISION_TRT, 5.0,
                                         3000, 1);
-    printf("\n    drag fluctuation: paper (yu, mem, equilibrium) %.4f, cli + galilean + extrapolation %.4f",
-           paper.fluct, best.fluct);
+    /* issue 11: multireflection, the candidate default, must not fluctuate more than cli */
+    const moving_t mr = moving_sphere(BOUNDARY_MULTIREFLECTION, FORCE_GALILEAN, REFILL_EXTRAPOLATION, COLLISION_TRT,
+                                      5.0, 3000, 1);
+    printf("\n    drag fluctuation: paper (yu, mem, equilibrium) %.4f, cli + galilean + extrapolation %.4f, "
+           "multireflection %.4f",
+           paper.fluct, best.fluct, mr.fluct);
     CU_ASSERT(best.fluct <= paper.fluct / 3.0);
+    CU_ASSERT(mr.fluct <= best.fluct);
 }
 
 /* ---- shift invariance across a periodic face ------------------------------ */
@@ -505,9 +554,12 @@ void spheres_register_tests(int validate)
     CU_add_test(s, "links and delta: overlapping, periodic, at a wall", test_links_overlapping_and_periodic);
     CU_add_test(s, "periodic array r=4: Sangani-Acrivos within 0.5%, tau 0.6/1/1.5", test_periodic_array_r4);
     CU_add_test(s, "periodic array r=8: Sangani-Acrivos within 0.2%", test_periodic_array_r8);
+    CU_add_test(s, "periodic array r=4 at 6 places in the cell: multireflection less place-dependent than cli",
+                test_drag_any_position);
     CU_add_test(s, "rotating sphere r=8: Hofmann torque within 2%", test_rotating_sphere_torque);
     CU_add_test(s, "moving sphere, bounce-back: momentum conserved", test_moving_sphere_momentum_bounce_back);
-    CU_add_test(s, "moving sphere: fluctuation a third of the paper's", test_moving_sphere_fluctuation);
+    CU_add_test(s, "moving sphere: fluctuation a third of the paper's, multireflection <= cli",
+                test_moving_sphere_fluctuation);
     CU_add_test(s, "shift across a periodic face: same force", test_shift_across_periodic_face);
     CU_add_test(s, "state save/restore: bit-identical continuation", test_state_restore_bit_identical);
     CU_add_test(s, "a sphere moving more than half a cell / a cell per step", test_sphere_speed_limits);
@@ -517,5 +569,7 @@ void spheres_register_tests(int validate)
         CU_pSuite v = CU_add_suite("spheres-validate", NULL, NULL);
         CU_add_test(v, "periodic array r=8: Sangani-Acrivos within 0.2% at tau 0.6, 1.5", test_periodic_array_r8_taus);
         CU_add_test(v, "dilute periodic array D/L = 0.2 within 0.5%", test_dilute_array);
+        CU_add_test(v, "periodic array r=4 at 22 places, tau 0.6/1/1.5: worst 1%, mean 0.5% (issue 11, open)",
+                    test_drag_any_position_acceptance);
     }
 }
