@@ -36,10 +36,11 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
      * body id; per connection 2 vectors and a flag; bodies: count, 2 vectors */
     const double ns = scene_total_spheres(s), nc = s->nconnections;
     const double row = 6 * 8.0 + ns * (15 * 8.0 + 4) + nc * (6 * 8.0 + 4) + (4 + 6 * 8.0);
-    const double rows = floor(t_end / s->run.output_interval) + 2.0;
+    /* at most one row and one snapshot per fluid step (shorter intervals write every step) */
+    const double rows = floor(t_end / fmax(s->run.output_interval, s->fluid.dt)) + 2.0;
     need->output = rows * row;
     if (s->run.fields) {
-        const double snaps = floor(t_end / s->run.field_interval) + 2.0;
+        const double snaps = floor(t_end / fmax(s->run.field_interval, s->fluid.dt)) + 2.0;
         need->fields = snaps * interior * FIELD_BYTES_PER_CELL;
     }
     if (checkpoints) {

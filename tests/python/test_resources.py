@@ -59,6 +59,15 @@ def test_disk_shortfall_names_what_is_written(coupler, tmp_path):
     assert ("MB free" in p.stderr) == (need > free_mb)
 
 
+def test_intervals_below_one_step_count_one_row_per_step(coupler):
+    # output_interval 1e-9 s < dt: one row per step, 3600 steps of a sphere (not 6e7 rows)
+    p = run("check", SCENE, "--set", "run.output_interval=1e-9", "--set", "run.fields=false")
+    assert p.returncode == 0, p.stderr
+    out_mb = float(re.search(r"output ([0-9.e+-]+) MB", p.stdout).group(1))
+    row = 6 * 8 + (15 * 8 + 4) + (4 + 6 * 8)  # fluid totals, one sphere, the bodies
+    assert abs(out_mb / (3602 * row / 1e6) - 1) < 0.01
+
+
 def test_fmu_names_the_failed_allocation(coupler, tmp_path, capfd):
     p = run("export", SCENE, "--set", HUGE, "-d", tmp_path)
     assert p.returncode == 0, p.stderr
