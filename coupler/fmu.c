@@ -336,7 +336,7 @@ status_t fmu_load(const char *path, const char *work_dir, const char *label, FIL
         goto done;
     }
     char lib[4400];
-    snprintf(lib, sizeof lib, "%s/binaries/linux64/%s.so", f->dir, f->identifier);
+    fmu_library_path(f, lib, sizeof lib);
     f->lib = dlopen(lib, RTLD_NOW | RTLD_LOCAL);
     if (f->lib == NULL) {
         st = log_msg(log, STATUS_ERROR, CAT, "%s: cannot load the FMU library: %s", label, dlerror());
