@@ -35,6 +35,9 @@ typedef enum { COLLISION_BGK, COLLISION_TRT } collision_t;
 typedef enum { BOUNDARY_BOUNCE_BACK, BOUNDARY_YU, BOUNDARY_CLI, BOUNDARY_QUADRATIC, BOUNDARY_MULTIREFLECTION } boundary_scheme_t;
 typedef enum { REFILL_EQUILIBRIUM, REFILL_EXTRAPOLATION } refill_t;
 typedef enum { FORCE_MOMENTUM_EXCHANGE, FORCE_GALILEAN } force_method_t;
+/* Population layout (fluid/layout.h): one array updated in place (the AA
+ * pattern) or two arrays, pull from one and write the other. */
+typedef enum { STREAMING_IN_PLACE, STREAMING_TWO_ARRAY } streaming_t;
 
 typedef struct {
     double size[3]; /* m */
@@ -64,6 +67,7 @@ typedef struct {
     boundary_scheme_t boundary_scheme;
     refill_t refill;
     force_method_t force_method;
+    streaming_t streaming;
     int force_averaging;        /* average force over two steps: 1, 0, or -1 = not given (per body, common/coupling.h) */
 } scene_fluid_t;
 

@@ -67,6 +67,7 @@ typedef struct {
     boundary_scheme_t *boundary_scheme;
     refill_t *refill;
     force_method_t *force;
+    streaming_t *streaming;
     int *force_averaging;
 } raw_fluid_t;
 

@@ -4,10 +4,14 @@
  * Bandwidth: a copy b[i] = a[i] over arrays far larger than the caches, with
  * non-temporal stores (no read-for-ownership), so each element costs one
  * 8-byte read and one 8-byte write of DRAM traffic; best of several repeats.
- * Fluid: a periodic cube, the whole step (boundary stage + fused kernel).
- * A two-array D3Q19 step must move at least 19 loads + 19 stores of a double
- * per cell, 304 bytes, so the bandwidth limit is B / 304 cell updates per
- * second; the ratio printed is MLUPS / that limit. */
+ * Fluid: a periodic cube, the whole step (boundary stage + fused kernel),
+ * for both streaming layouts (fluid/layout.h). A D3Q19 step must move at
+ * least 19 loads + 19 stores of a double per cell, 304 bytes, in either
+ * layout (two arrays: the stores are non-temporal, no read-for-ownership;
+ * in place: the stores go to lines just read), so the bandwidth limit is
+ * B / 304 cell updates per second; the ratio printed is MLUPS / that limit.
+ * Memory: bytes of the fluid component per interior cell, everything
+ * included (fluid_memory_bytes). */
 #include "bench.h"
 
 #include "../common/scene.h"
@@ -77,7 +81,7 @@ static double stream_bandwidth(int threads)
     return best;
 }
 
-static double fluid_mlups(int size, int threads)
+static double fluid_mlups(int size, int threads, streaming_t streaming, double *bytes_per_cell)
 {
     omp_set_num_threads(threads);
     scene_t s;
@@ -95,6 +99,7 @@ static double fluid_mlups(int size, int threads)
     s.fluid.magic = 3.0 / 16.0;
     s.fluid.initial_velocity[0] = 0.01;
     s.fluid.body_force[2] = 1e-7;
+    s.fluid.streaming = streaming;
     log_t log = {log_stderr, NULL};
     fluid_t *fl = NULL;
     if (fluid_create(&s, &log, &fl) != STATUS_OK) {
@@ -104,6 +109,7 @@ static double fluid_mlups(int size, int threads)
         fluid_step(fl);
     }
     const double cells = (double)size * size * size;
+    *bytes_per_cell = (double)fluid_memory_bytes(fl) / cells;
     double best = 0.0, total = 0.0;
     for (int rep = 0; rep < 5 || total < 2.0; rep++) {
         const int steps = (int)fmax(1.0, 2e7 / cells);
@@ -141,23 +147,29 @@ int bench_main(const int *sizes, int nsizes, int json)
         }
     }
     if (!json) {
-        printf("%6s %7s %9s %9s %8s %10s %12s %7s\n", "size", "threads", "precision", "streaming", "MLUPS",
-               "BW GB/s", "limit MLUPS", "ratio");
+        printf("%6s %7s %9s %9s %8s %10s %12s %7s %10s\n", "size", "threads", "precision", "streaming", "MLUPS",
+               "BW GB/s", "limit MLUPS", "ratio", "bytes/cell");
     }
+    static const streaming_t layouts[] = {STREAMING_IN_PLACE, STREAMING_TWO_ARRAY};
+    static const char *const names[] = {"in_place", "two_array"};
     for (int k = 0; k < nsizes; k++) {
-        for (int t = 0; t < ntc; t++) {
-            const double m = fluid_mlups(sizes[k], tcounts[t]);
-            const double limit = bw[t] * 1e9 / BYTES_PER_UPDATE / 1e6;
-            const double ratio = limit > 0.0 ? m / limit : 0.0;
-            if (json) {
-                printf("{\"size\": %d, \"threads\": %d, \"precision\": \"double\", \"streaming\": \"pull\", "
-                       "\"mlups\": %.3f, \"bandwidth_gbs\": %.3f, \"limit_mlups\": %.3f, \"ratio\": %.4f}\n",
-                       sizes[k], tcounts[t], m, bw[t], limit, ratio);
-            } else {
-                printf("%6d %7d %9s %9s %8.2f %10.2f %12.2f %7.3f\n", sizes[k], tcounts[t], "double", "pull", m,
-                       bw[t], limit, ratio);
+        for (int l = 0; l < 2; l++) {
+            for (int t = 0; t < ntc; t++) {
+                double bpc = 0.0;
+                const double m = fluid_mlups(sizes[k], tcounts[t], layouts[l], &bpc);
+                const double limit = bw[t] * 1e9 / BYTES_PER_UPDATE / 1e6;
+                const double ratio = limit > 0.0 ? m / limit : 0.0;
+                if (json) {
+                    printf("{\"size\": %d, \"threads\": %d, \"precision\": \"double\", \"streaming\": \"%s\", "
+                           "\"mlups\": %.3f, \"bandwidth_gbs\": %.3f, \"limit_mlups\": %.3f, \"ratio\": %.4f, "
+                           "\"bytes_per_cell\": %.2f}\n",
+                           sizes[k], tcounts[t], names[l], m, bw[t], limit, ratio, bpc);
+                } else {
+                    printf("%6d %7d %9s %9s %8.2f %10.2f %12.2f %7.3f %10.1f\n", sizes[k], tcounts[t], "double",
+                           names[l], m, bw[t], limit, ratio, bpc);
+                }
+                fflush(stdout);
             }
-            fflush(stdout);
         }
     }
     omp_set_num_threads(maxthreads);

@@ -162,13 +162,17 @@ static int cmd_check(const scene_t *s, const log_t *log)
         }
     }
     printf("  steps              %ld to t = %.6g s\n", a.steps, s->run.end_time);
-    printf("  memory             %.4g MB (%.0f bytes per cell)\n", a.bytes / 1e6, units_bytes_per_cell());
+    const double interior = (double)u.n[0] * u.n[1] * u.n[2];
+    printf("  memory             %.4g MB (fluid.streaming %s: %.0f bytes per allocated cell, %.1f per interior cell "
+           "with the ghost layers)\n",
+           a.bytes / 1e6, s->fluid.streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place", units_bytes_per_cell(s),
+           a.bytes / interior);
     resources_need_t need;
     if (resources_need(s, (double)a.steps * u.dt, 0, log, &need) == STATUS_OK) {
         printf("  run needs          %.4g MB of memory; %.4g MB on disk (output %.4g MB, field snapshots %.4g MB), "
                "a checkpoint %.4g MB more\n",
                need.memory / 1e6, need.disk / 1e6, need.output / 1e6, need.fields / 1e6,
-               (need.grid_cells * units_bytes_per_cell() + need.output) / 1e6);
+               (need.grid_cells * units_bytes_per_cell(s) + need.output) / 1e6);
         /* the default output goes to the current folder */
         a.nwarnings += resources_compare(&need, ".", STATUS_WARNING, log);
     }

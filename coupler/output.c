@@ -8,11 +8,22 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+
+/* Rows are kept in memory and written together, OUTPUT_BUFFER_ROWS at a
+ * time or after OUTPUT_FLUSH_SECONDS of wall time, whichever comes first
+ * (and at every checkpoint and at the end): a row costs a memcpy, not an
+ * HDF5 write and a flush, and a killed run loses at most the rows of the
+ * last second. */
+enum { OUTPUT_BUFFER_ROWS = 256 };
+static const double OUTPUT_FLUSH_SECONDS = 1.0;
 
 typedef struct {
     hid_t id, type;
     int rank;        /* 1: [n], 2: [n, a], 3: [n, a, b] */
     hsize_t dims[3]; /* dims[0] = rows written */
+    size_t row_bytes;
+    unsigned char *buf; /* OUTPUT_BUFFER_ROWS rows not yet written */
 } series_t;
 
 enum {
@@ -41,8 +52,17 @@ struct output {
     hid_t file;
     series_t s[NSERIES];
     int ns, nc, bodies;
-    hsize_t rows;
+    hsize_t rows;    /* rows in the file */
+    hsize_t pending; /* rows in the buffers */
+    double last_write; /* monotonic clock, s */
 };
+
+static double now_seconds(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
 
 static status_t fail(const output_t *o, const char *what)
 {
@@ -106,6 +126,13 @@ static status_t series_create(output_t *o, series_t *s, const char *name, hid_t 
     s->dims[1] = a;
     s->dims[2] = b;
     const hsize_t per_row = (a > 0 ? a : 1) * (b > 0 ? b : 1);
+    s->row_bytes = (size_t)per_row * H5Tget_size(type);
+    s->buf = malloc(OUTPUT_BUFFER_ROWS * s->row_bytes);
+    if (s->buf == NULL) {
+        s->id = -1;
+        return log_msg(&o->log, STATUS_FATAL, "output", "out of memory for the row buffer of %s (%zu bytes)", name,
+                       OUTPUT_BUFFER_ROWS * s->row_bytes);
+    }
     hsize_t maxd[3] = {H5S_UNLIMITED, a, b}, chunk[3] = {per_row >= 4096 ? 1 : 4096 / per_row, a, b};
     hid_t space = H5Screate_simple(s->rank, s->dims, maxd);
     hid_t plist = H5Pcreate(H5P_DATASET_CREATE);
@@ -133,13 +160,21 @@ static status_t series_create(output_t *o, series_t *s, const char *name, hid_t 
     return st;
 }
 
-static status_t series_append(output_t *o, series_t *s, const void *v)
+static void series_append(output_t *o, series_t *s, const void *v)
+{
+    if (s->id >= 0) { /* else not part of this scene's layout */
+        memcpy(s->buf + o->pending * s->row_bytes, v, s->row_bytes);
+    }
+}
+
+/* Writes the buffered rows of one series after the o->rows in the file. */
+static status_t series_write(output_t *o, series_t *s)
 {
     if (s->id < 0) {
-        return STATUS_OK; /* not part of this scene's layout */
+        return STATUS_OK;
     }
-    hsize_t dims[3] = {o->rows + 1, s->dims[1], s->dims[2]}, start[3] = {o->rows, 0, 0};
-    hsize_t count[3] = {1, s->dims[1], s->dims[2]};
+    hsize_t dims[3] = {o->rows + o->pending, s->dims[1], s->dims[2]}, start[3] = {o->rows, 0, 0};
+    hsize_t count[3] = {o->pending, s->dims[1], s->dims[2]};
     status_t st = STATUS_OK;
     if (H5Dset_extent(s->id, dims) < 0) {
         return fail(o, "a time series (extending)");
@@ -147,7 +182,7 @@ static status_t series_append(output_t *o, series_t *s, const void *v)
     hid_t fs = H5Dget_space(s->id);
     hid_t ms = H5Screate_simple(s->rank, count, NULL);
     if (fs < 0 || ms < 0 || H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, count, NULL) < 0 ||
-        H5Dwrite(s->id, s->type, ms, fs, H5P_DEFAULT, v) < 0) {
+        H5Dwrite(s->id, s->type, ms, fs, H5P_DEFAULT, s->buf) < 0) {
         st = fail(o, "a time series row");
     }
     if (ms >= 0) {
@@ -156,6 +191,24 @@ static status_t series_append(output_t *o, series_t *s, const void *v)
     if (fs >= 0) {
         H5Sclose(fs);
     }
+    return st;
+}
+
+/* Writes every buffered row and flushes the file. */
+static status_t write_pending(output_t *o)
+{
+    status_t st = STATUS_OK;
+    if (o->pending > 0) {
+        for (int k = 0; k < NSERIES; k++) {
+            st = status_worst(st, series_write(o, &o->s[k]));
+        }
+        o->rows += o->pending;
+        o->pending = 0;
+    }
+    if (H5Fflush(o->file, H5F_SCOPE_GLOBAL) < 0) {
+        st = status_worst(st, fail(o, "the file (flushing)"));
+    }
+    o->last_write = now_seconds();
     return st;
 }
 
@@ -305,8 +358,9 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
 
 status_t output_save_rows(output_t *o, const char *path, const char *prefix)
 {
-    if (H5Fflush(o->file, H5F_SCOPE_GLOBAL) < 0) {
-        return fail(o, "the file (flushing)");
+    const status_t wst = write_pending(o);
+    if (wst != STATUS_OK) {
+        return wst;
     }
     hid_t dst = H5Fopen(path, H5F_ACC_RDWR, H5P_DEFAULT);
     hid_t lcpl = H5Pcreate(H5P_LINK_CREATE);
@@ -395,6 +449,7 @@ status_t output_restore_rows(output_t *o, const char *path, const char *prefix, 
     H5Fclose(src);
     if (st == STATUS_OK) {
         o->rows = (hsize_t)rows;
+        o->pending = 0;
         if (H5Fflush(o->file, H5F_SCOPE_GLOBAL) < 0) {
             st = fail(o, "the file (flushing)");
         }
@@ -402,43 +457,40 @@ status_t output_restore_rows(output_t *o, const char *path, const char *prefix, 
     return st;
 }
 
-long output_rows(const output_t *o) { return (long)o->rows; }
+long output_rows(const output_t *o) { return (long)(o->rows + o->pending); }
 
-status_t output_flush(output_t *o)
-{
-    return H5Fflush(o->file, H5F_SCOPE_GLOBAL) < 0 ? fail(o, "the file (flushing)") : STATUS_OK;
-}
+status_t output_flush(output_t *o) { return write_pending(o); }
 
 status_t output_row(output_t *o, const output_row_t *r)
 {
     series_t *s = o->s;
-    status_t st = series_append(o, &s[S_TIME], &r->time);
-    st = status_worst(st, series_append(o, &s[S_MASS], &r->mass));
-    st = status_worst(st, series_append(o, &s[S_MOMENTUM], r->momentum));
-    st = status_worst(st, series_append(o, &s[S_ENERGY], &r->kinetic_energy));
+    series_append(o, &s[S_TIME], &r->time);
+    series_append(o, &s[S_MASS], &r->mass);
+    series_append(o, &s[S_MOMENTUM], r->momentum);
+    series_append(o, &s[S_ENERGY], &r->kinetic_energy);
     if (o->ns > 0) {
-        st = status_worst(st, series_append(o, &s[S_POSITION], r->position));
-        st = status_worst(st, series_append(o, &s[S_VELOCITY], r->velocity));
-        st = status_worst(st, series_append(o, &s[S_OMEGA], r->angular_velocity));
-        st = status_worst(st, series_append(o, &s[S_FORCE], r->force));
-        st = status_worst(st, series_append(o, &s[S_TORQUE], r->torque));
-        st = status_worst(st, series_append(o, &s[S_BODY], r->body));
+        series_append(o, &s[S_POSITION], r->position);
+        series_append(o, &s[S_VELOCITY], r->velocity);
+        series_append(o, &s[S_OMEGA], r->angular_velocity);
+        series_append(o, &s[S_FORCE], r->force);
+        series_append(o, &s[S_TORQUE], r->torque);
+        series_append(o, &s[S_BODY], r->body);
     }
     if (o->nc > 0) {
-        st = status_worst(st, series_append(o, &s[S_CONN_FORCE], r->conn_force));
-        st = status_worst(st, series_append(o, &s[S_CONN_TORQUE], r->conn_torque));
-        st = status_worst(st, series_append(o, &s[S_CONN_INTACT], r->intact));
+        series_append(o, &s[S_CONN_FORCE], r->conn_force);
+        series_append(o, &s[S_CONN_TORQUE], r->conn_torque);
+        series_append(o, &s[S_CONN_INTACT], r->intact);
     }
     if (o->bodies) {
-        st = status_worst(st, series_append(o, &s[S_NBODIES], &r->nbodies));
-        st = status_worst(st, series_append(o, &s[S_BODY_MOMENTUM], r->body_momentum));
-        st = status_worst(st, series_append(o, &s[S_BODY_ANGMOM], r->body_angular_momentum));
+        series_append(o, &s[S_NBODIES], &r->nbodies);
+        series_append(o, &s[S_BODY_MOMENTUM], r->body_momentum);
+        series_append(o, &s[S_BODY_ANGMOM], r->body_angular_momentum);
     }
-    o->rows++;
-    if (H5Fflush(o->file, H5F_SCOPE_GLOBAL) < 0) {
-        st = status_worst(st, fail(o, "the file (flushing)"));
+    o->pending++;
+    if (o->pending == OUTPUT_BUFFER_ROWS || now_seconds() - o->last_write >= OUTPUT_FLUSH_SECONDS) {
+        return write_pending(o);
     }
-    return st;
+    return STATUS_OK;
 }
 
 status_t output_attr(output_t *o, const char *name, double value)
@@ -456,11 +508,12 @@ status_t output_close(output_t *o)
     if (o == NULL) {
         return STATUS_OK;
     }
-    status_t st = STATUS_OK;
+    status_t st = o->file >= 0 ? write_pending(o) : STATUS_OK;
     for (int k = 0; k < NSERIES; k++) {
         if (o->s[k].id >= 0 && H5Dclose(o->s[k].id) < 0) {
             st = fail(o, "a dataset (closing)");
         }
+        free(o->s[k].buf);
     }
     if (o->file >= 0 && H5Fclose(o->file) < 0) {
         st = fail(o, "the file (closing)");

@@ -16,8 +16,10 @@
  * Only what the scene needs: no /spheres without spheres, no /connections
  * without connections, no /bodies without moving bodies, no /fields link without field output. Every dataset
  * has a `unit` attribute. Time series are extendible chunked datasets, one
- * row per output step, flushed at every row so that a killed run leaves a
- * readable file up to its last output. hdf5.h appears only in output.c. */
+ * row per output step; rows are buffered and written at least every second
+ * (and every 256 rows, at every checkpoint and at the end), so that a
+ * killed run leaves a readable file that lacks at most its last second of
+ * rows. hdf5.h appears only in output.c. */
 #ifndef COUPLER_OUTPUT_H
 #define COUPLER_OUTPUT_H
 

@@ -30,7 +30,8 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
     grid_init(&g, u.n);
     const double interior = (double)u.n[0] * u.n[1] * u.n[2];
     need->grid_cells = (double)g.ncells;
-    const double grid = need->grid_cells * units_bytes_per_cell();
+    need->cell_bytes = units_bytes_per_cell(s);
+    const double grid = need->grid_cells * need->cell_bytes;
     need->memory = grid + interior * FIELD_BYTES_PER_CELL;
     /* a row: time, fluid mass, momentum, energy; per sphere 5 vectors and a
      * body id; per connection 2 vectors and a flag; bodies: count, 2 vectors */
@@ -82,7 +83,7 @@ int resources_compare(const resources_need_t *need, const char *folder, status_t
                 "the run needs %.4g MB of memory (fluid grid of %.4g M cells at %.0f bytes per cell, field buffers%s), "
                 "this machine has %.4g MB available (MemAvailable in /proc/meminfo): use fewer cells (a larger dx, "
                 "a smaller domain)",
-                need->memory / 1e6, need->grid_cells / 1e6, units_bytes_per_cell(),
+                need->memory / 1e6, need->grid_cells / 1e6, need->cell_bytes,
                 need->checkpoint > 0.0 ? ", the state copies of a checkpoint" : "", mem / 1e6);
         short_of++;
     }

@@ -19,6 +19,7 @@
 typedef struct {
     double memory;      /* bytes */
     double grid_cells;  /* allocated cells of the fluid grid */
+    double cell_bytes;  /* bytes per allocated cell (units_bytes_per_cell) */
     double output;      /* bytes of the time series */
     double fields;      /* bytes of the field snapshots (0: none) */
     double checkpoint;  /* bytes of one checkpoint (0: none asked for) */

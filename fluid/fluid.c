@@ -1,9 +1,11 @@
 /* fluid.c — the fluid component: creation, the time step, fields, checks.
  *
- * A step is the algorithm in two named stages: the boundary stage fills the
- * ghost slots that interior cells pull from (walls.c), then the fused kernel
- * pulls, collides and writes the other population array (kernel.c); the
- * arrays swap. Populations are SoA with one ghost layer (grid.h). */
+ * A step is the algorithm in two named stages: the boundary stage writes the
+ * populations that interior cells receive from ghost and solid neighbours
+ * (walls.c, spheres.c), then the fused kernel streams and collides
+ * (kernel.c): in place on one array, alternating the local and the push
+ * kernel, or from one array into the other, which then swap (layout.h).
+ * Populations are SoA with one ghost layer (grid.h). */
 #include "fluid_internal.h"
 
 #include "initial_profile.h"
@@ -14,14 +16,25 @@
 #include <stdint.h>
 #include <string.h>
 
+/* One population array with a margin of POPS_MARGIN doubles (64 bytes)
+ * before and after: the in-place push kernel touches one cell beyond each end
+ * (kernel.c). Returns the allocation; the array starts POPS_MARGIN into it. */
+enum { POPS_MARGIN = 8 };
+
 static double *alloc_populations(const grid_t *g)
 {
-    if (g->ncells > (SIZE_MAX - 64) / (LB_Q * sizeof(double))) {
+    if (g->ncells > (SIZE_MAX - 1024) / (LB_Q * sizeof(double))) {
         return NULL; /* more bytes than an address space holds */
     }
-    size_t bytes = (size_t)LB_Q * g->ncells * sizeof(double);
+    size_t bytes = ((size_t)LB_Q * g->ncells + 2 * POPS_MARGIN) * sizeof(double);
     bytes = (bytes + 63) / 64 * 64;
-    return aligned_alloc(64, bytes);
+    double *m = aligned_alloc(64, bytes);
+    if (m != NULL) {
+        for (int k = 0; k < POPS_MARGIN; k++) {
+            m[k] = m[POPS_MARGIN + (size_t)LB_Q * g->ncells + (size_t)k] = 0.0;
+        }
+    }
+    return m;
 }
 
 /* Equilibrium everywhere (ghosts too), written in the kernel's row order so
@@ -35,14 +48,16 @@ static void init_uniform(fluid_t *fl, double rho, const double u[3])
     }
     const size_t N = g->ncells;
     const size_t plane = (size_t)g->s[0] * (size_t)g->s[1];
-    for (int k = 0; k < 2; k++) {
+    const int swapped = fl->layout == LAYOUT_SWAPPED; /* post_slot(q, x) is slot qbar of x */
+    for (int k = 0; k < fluid_arrays(fl); k++) {
         double *f = fl->f[k];
 #pragma omp parallel for schedule(static)
         for (int z = 0; z < g->s[2]; z++) {
             for (int q = 0; q < LB_Q; q++) {
                 double *p = f + (size_t)q * N + (size_t)z * plane;
+                const double v = feq[swapped ? lb_opposite(q) : q];
                 for (size_t i = 0; i < plane; i++) {
-                    p[i] = feq[q];
+                    p[i] = v;
                 }
             }
         }
@@ -62,7 +77,7 @@ static void init_profile(fluid_t *fl, const scene_t *scene)
 {
     const grid_t *g = &fl->g;
     const double dx = scene->fluid.dx, uv = units_velocity(&fl->units), tau = scene->fluid.tau;
-    const size_t N = g->ncells;
+    const pops_t p0 = fluid_pops(fl); /* the layout state is local (PULL or SWAPPED) */
 #pragma omp parallel for schedule(static)
     for (int z = 0; z < g->s[2]; z++) {
         for (int y = 0; y < g->s[1]; y++) {
@@ -91,8 +106,10 @@ static void init_profile(fluid_t *fl, const scene_t *scene)
                             qs += (lb_c[q][a] * lb_c[q][b] - (a == b ? 1.0 / 3.0 : 0.0)) * grad[a][b];
                         }
                     }
-                    fl->f[0][(size_t)q * N + i] = fl->f[1][(size_t)q * N + i] =
-                        lb_feq(q, 1.0, ul[0], ul[1], ul[2]) - 3.0 * (tau - 1.0) * lb_w[q] * qs;
+                    const double v = lb_feq(q, 1.0, ul[0], ul[1], ul[2]) - 3.0 * (tau - 1.0) * lb_w[q] * qs;
+                    for (int k = 0; k < fluid_arrays(fl); k++) {
+                        fl->f[k][pops_post_slot(&p0, q, i)] = v;
+                    }
                 }
             }
         }
@@ -119,15 +136,34 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     fl->kp.omega_minus = fl->units.omega_minus;
     memcpy(fl->kp.force, fl->units.force_lat, sizeof fl->kp.force);
     fl->path = strdup(scene->path ? scene->path : "(scene)");
-    fl->f[0] = alloc_populations(&fl->g);
-    fl->f[1] = alloc_populations(&fl->g);
+    fl->streaming = scene->fluid.streaming;
+    fl->layout = fl->streaming == STREAMING_TWO_ARRAY ? LAYOUT_PULL : LAYOUT_SWAPPED;
+    if (fl->streaming == STREAMING_IN_PLACE && scene->fluid.boundary_scheme == BOUNDARY_MULTIREFLECTION &&
+        scene_total_spheres(scene) > 0 && fabs(1.0 - fl->units.omega_minus) < 0.05) { /* spheres.c SPHERES_MR_DECAY_MIN */
+        /* spheres.c recovers the pre-collision n^- as n~^- / (1 - omega_minus) */
+        st = log_msg(log, STATUS_ERROR, "fluid",
+                     "%s: fluid.boundary_scheme multireflection with fluid.streaming in_place needs omega_minus "
+                     "outside [0.95, 1.05] (here %.4g, from fluid.tau %.6g and fluid.magic %.4g): the collision then "
+                     "forgets the pre-collision populations the scheme needs. Set fluid.streaming: two_array, or "
+                     "another fluid.magic",
+                     fl->path ? fl->path : "(scene)", fl->units.omega_minus, scene->fluid.tau, scene->fluid.magic);
+        free(fl->path);
+        free(fl);
+        return st;
+    }
+    int have = 1;
+    for (int k = 0; k < fluid_arrays(fl); k++) {
+        fl->mem[k] = alloc_populations(&fl->g);
+        fl->f[k] = fl->mem[k] != NULL ? fl->mem[k] + POPS_MARGIN : NULL;
+        have = have && fl->mem[k] != NULL;
+    }
     fl->flags = calloc(fl->g.ncells, 1);
-    if (fl->path == NULL || fl->f[0] == NULL || fl->f[1] == NULL || fl->flags == NULL) {
+    if (fl->path == NULL || !have || fl->flags == NULL) {
         log_msg(log, STATUS_ERROR, "fluid",
-                "%s: out of memory for the populations and flags of %d x %d x %d cells (%.4g GB: two arrays of "
+                "%s: out of memory for the populations and flags of %d x %d x %d cells (%.4g GB: %d array(s) of "
                 "%.4g GB and the flags)",
-                fl->path, fl->g.n[0], fl->g.n[1], fl->g.n[2], (double)fl->g.ncells * units_bytes_per_cell() / 1e9,
-                (double)fl->g.ncells * LB_Q * sizeof(double) / 1e9);
+                fl->path, fl->g.n[0], fl->g.n[1], fl->g.n[2], (double)fl->g.ncells * units_bytes_per_cell(scene) / 1e9,
+                fluid_arrays(fl), (double)fl->g.ncells * LB_Q * sizeof(double) / 1e9);
         fluid_free(fl);
         return STATUS_ERROR;
     }
@@ -151,7 +187,8 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
         st = spheres_init(&fl->spheres, scene, &fl->units, &fl->g, fl->flags, log);
     }
     if (st == STATUS_OK) {
-        st = spheres_map(&fl->spheres, &fl->g, fl->flags, fl->f[fl->cur], log);
+        const pops_t p = fluid_pops(fl);
+        st = spheres_map(&fl->spheres, &fl->g, fl->flags, &p, log);
     }
     if (st != STATUS_OK) {
         fluid_free(fl);
@@ -170,8 +207,8 @@ void fluid_free(fluid_t *fl)
     walls_free(&fl->walls);
     spheres_free(&fl->spheres);
     free(fl->flags);
-    free(fl->f[1]);
-    free(fl->f[0]);
+    free(fl->mem[1]);
+    free(fl->mem[0]);
     free(fl->path);
     free(fl);
 }
@@ -303,21 +340,31 @@ static status_t watch_period_two(fluid_t *fl)
 
 status_t fluid_step(fluid_t *fl)
 {
-    double *src = fl->f[fl->cur];
-    double *dst = fl->f[1 - fl->cur];
+    const pops_t p = fluid_pops(fl);
+    const int two = fl->streaming == STREAMING_TWO_ARRAY;
     if (fl->spheres.n > 0) {
         spheres_advance_prescribed(&fl->spheres, &fl->g, fl->step);
-        const status_t st = spheres_map(&fl->spheres, &fl->g, fl->flags, src, &fl->log);
+        const status_t st = spheres_map(&fl->spheres, &fl->g, fl->flags, &p, &fl->log);
         if (st != STATUS_OK) {
             return st;
         }
-        walls_fill(&fl->walls, &fl->g, src);
-        spheres_fill(&fl->spheres, &fl->g, src, dst);
+        walls_fill(&fl->walls, &fl->g, &p);
+        pops_t prev;
+        if (two) {
+            pops_init(&prev, &fl->g, fl->f[1 - fl->cur], LAYOUT_PULL);
+        }
+        spheres_fill(&fl->spheres, &fl->g, &p, two ? &prev : NULL);
     } else {
-        walls_fill(&fl->walls, &fl->g, src);
+        walls_fill(&fl->walls, &fl->g, &p);
     }
-    kernel_stream_collide(&fl->g, &fl->kp, src, dst);
-    fl->cur = 1 - fl->cur;
+    if (two) {
+        kernel_stream_collide(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur]);
+        fl->cur = 1 - fl->cur;
+    } else {
+        const int push = fl->layout == LAYOUT_SWAPPED;
+        kernel_in_place(&fl->g, &fl->kp, fl->f[0], push);
+        fl->layout = push ? LAYOUT_PUSHED : LAYOUT_SWAPPED;
+    }
     fl->step++;
     return fl->spheres.n > 0 ? watch_period_two(fl) : STATUS_OK;
 }
@@ -336,18 +383,19 @@ void fluid_cells(const fluid_t *fl, int n[3])
 
 size_t fluid_memory_bytes(const fluid_t *fl)
 {
-    return 2 * (size_t)LB_Q * fl->g.ncells * sizeof(double) + fl->g.ncells +
-           fl->walls.nlinks * sizeof(ghost_link_t) + 2 * fl->walls.ncopies * sizeof(size_t) + sizeof *fl;
+    return (size_t)fluid_arrays(fl) * ((size_t)LB_Q * fl->g.ncells + 2 * POPS_MARGIN) * sizeof(double) +
+           fl->g.ncells + fl->walls.nlinks * sizeof(ghost_link_t) + fl->walls.ncopies * sizeof(copy_link_t) +
+           sizeof *fl;
 }
 
 /* Density and velocity of cell i from its post-collision populations: the
  * collision keeps the density and adds the force F to the momentum, so the
  * velocity it used is u = (sum c f~ - F/2) / rho (Guo et al. 2002). Needs no
  * boundary values, and so is exact next to walls and spheres. */
-static void local_moments(const fluid_t *fl, const double *f, size_t i, double *rho, double u[3])
+static void local_moments(const fluid_t *fl, const pops_t *f, size_t i, double *rho, double u[3])
 {
     double j[3];
-    *rho = lb_moments(f, fl->g.ncells, i, j);
+    *rho = pops_moments(f, i, j);
     for (int a = 0; a < 3; a++) {
         u[a] = (j[a] - 0.5 * fl->kp.force[a]) / *rho;
     }
@@ -356,7 +404,7 @@ static void local_moments(const fluid_t *fl, const double *f, size_t i, double *
 void fluid_moments_lattice(fluid_t *fl, double *rho, double *u)
 {
     const grid_t *g = &fl->g;
-    const double *f = fl->f[fl->cur];
+    const pops_t pf = fluid_pops(fl), *f = &pf;
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
 #pragma omp parallel for schedule(static)
     for (int z = 0; z < nz; z++) {
@@ -384,7 +432,7 @@ void fluid_moments_lattice(fluid_t *fl, double *rho, double *u)
 void fluid_set_equilibrium_lattice(fluid_t *fl, const double *rho, const double *u)
 {
     const grid_t *g = &fl->g;
-    double *f = fl->f[fl->cur];
+    const pops_t pf = fluid_pops(fl);
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     for (int z = 0; z < nz; z++) {
         for (int y = 0; y < ny; y++) {
@@ -395,7 +443,7 @@ void fluid_set_equilibrium_lattice(fluid_t *fl, const double *rho, const double 
                 const double ux = u != NULL ? u[3 * o] : 0.0, uy = u != NULL ? u[3 * o + 1] : 0.0,
                              uz = u != NULL ? u[3 * o + 2] : 0.0;
                 for (int q = 0; q < LB_Q; q++) {
-                    f[(size_t)q * g->ncells + i] = lb_feq(q, r, ux, uy, uz);
+                    pf.f[pops_post_slot(&pf, q, i)] = lb_feq(q, r, ux, uy, uz);
                 }
             }
         }
@@ -419,7 +467,7 @@ void fluid_flags(const fluid_t *fl, unsigned char *flags)
 void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
 {
     const grid_t *g = &fl->g;
-    const double *f = fl->f[fl->cur];
+    const pops_t pf = fluid_pops(fl), *f = &pf;
     double m = 0.0, jx = 0.0, jy = 0.0, jz = 0.0;
     const int ny = g->n[1], nz = g->n[2];
 #pragma omp parallel for collapse(2) reduction(+ : m, jx, jy, jz) schedule(static)
@@ -431,7 +479,7 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
                     continue;
                 }
                 for (int q = 0; q < LB_Q; q++) {
-                    const double v = f[(size_t)q * g->ncells + i];
+                    const double v = pops_post(f, q, i);
                     m += v;
                     jx += lb_c[q][0] * v;
                     jy += lb_c[q][1] * v;
@@ -449,7 +497,7 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
 status_t fluid_check(fluid_t *fl, double mach_limit)
 {
     const grid_t *g = &fl->g;
-    const double *f = fl->f[fl->cur];
+    const pops_t pf = fluid_pops(fl), *f = &pf;
     const double umax2 = mach_limit * mach_limit * LB_CS2;
     long bad = -1;
     int cause = 0;
@@ -463,7 +511,7 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
                     continue;
                 }
                 double j[3];
-                const double r = lb_moments(f, g->ncells, i, j);
+                const double r = pops_moments(f, i, j);
                 const double uu = (j[0] * j[0] + j[1] * j[1] + j[2] * j[2]) / (r * r);
                 if (!(r > 0.0) || !isfinite(r) || !(uu <= umax2)) {
                     bad = (long)i > bad ? (long)i : bad;
@@ -479,7 +527,7 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
     const int y = (int)(i / (size_t)g->s[0] % (size_t)g->s[1]);
     const int z = (int)(i / ((size_t)g->s[0] * (size_t)g->s[1]));
     double j[3];
-    const double r = lb_moments(f, g->ncells, i, j);
+    const double r = pops_moments(f, i, j);
     const double umag = sqrt(j[0] * j[0] + j[1] * j[1] + j[2] * j[2]) / r;
     cause = !isfinite(r) ? 1 : (!(r > 0.0) ? 2 : 3);
     static const char *causes[] = {"", "non-finite density (NaN or Inf)", "non-positive density",

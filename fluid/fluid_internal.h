@@ -11,6 +11,7 @@
 #include "fluid.h"
 #include "grid.h"
 #include "kernel.h"
+#include "layout.h"
 #include "spheres.h"
 #include "walls.h"
 
@@ -22,8 +23,11 @@ struct fluid {
     grid_t g;
     units_t units;
     kernel_params_t kp;
-    double *f[2];
+    double *f[2];         /* two_array: both; in_place: f[0] only (f[1] NULL) */
+    double *mem[2];       /* allocations: f[k] sits POPS_MARGIN doubles into mem[k] */
     int cur;
+    streaming_t streaming;
+    layout_state_t layout; /* of f[cur] (layout.h) */
     uint8_t *flags;
     walls_t walls;
     spheres_t spheres;
@@ -32,5 +36,15 @@ struct fluid {
     log_t log;
     char *path; /* scene file, for messages */
 };
+
+/* The populations of f[cur] with the maps of its layout state. */
+static inline pops_t fluid_pops(const fluid_t *fl)
+{
+    pops_t p;
+    pops_init(&p, &fl->g, fl->f[fl->cur], fl->layout);
+    return p;
+}
+
+static inline int fluid_arrays(const fluid_t *fl) { return fl->streaming == STREAMING_TWO_ARRAY ? 2 : 1; }
 
 #endif

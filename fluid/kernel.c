@@ -35,9 +35,12 @@
 #define KERNEL_CAT2(a, b) a##_##b
 #define KERNEL_CAT(a, b) KERNEL_CAT2(a, b)
 #define KERNEL_ENTRY KERNEL_CAT(kernel_stream_collide, KERNEL_VARIANT)
+#define KERNEL_IN_PLACE KERNEL_CAT(kernel_in_place, KERNEL_VARIANT)
 void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const double *restrict src, double *restrict dst);
+void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, double *f, int push);
 #else
 #define KERNEL_ENTRY kernel_stream_collide
+#define KERNEL_IN_PLACE kernel_in_place
 #endif
 
 #if !defined(KERNEL_VARIANT) || defined(KERNEL_PRIMARY)
@@ -70,10 +73,10 @@ typedef struct {
         out[k + 9][x] = np - nm;                                                   \
     } while (0)
 
-static void collide_block(const consts_t *restrict k_, const double *restrict src, size_t ncells,
-                          const ptrdiff_t off[LB_Q], size_t base, int nb, double (*restrict out)[KERNEL_BLOCK])
+static void collide_block(const consts_t *restrict k_, const double *const in[LB_Q], int nb,
+                          double (*restrict out)[KERNEL_BLOCK])
 {
-#define PTR(name, q) const double *restrict name = src + (size_t)(q) * ncells + base - off[q]
+#define PTR(name, q) const double *restrict name = in[q]
     PTR(f0, 0);
     PTR(f1, 1);
     PTR(f2, 2);
@@ -128,8 +131,8 @@ static void collide_block(const consts_t *restrict k_, const double *restrict sr
 
 /* Copies the block buffer to dst. With SSE2/AVX the stores are non-temporal:
  * dst rows are 64-byte aligned and nb is a multiple of GRID_ALIGN (grid.h). */
-static void store_block(double *restrict dst, size_t ncells, size_t base, int nb,
-                        double (*restrict buf)[KERNEL_BLOCK])
+static void store_block_nt(double *restrict dst, size_t ncells, size_t base, int nb,
+                           double (*restrict buf)[KERNEL_BLOCK])
 {
     for (int q = 0; q < LB_Q; q++) {
         double *restrict d = dst + (size_t)q * ncells + base;
@@ -149,20 +152,39 @@ static void store_block(double *restrict dst, size_t ncells, size_t base, int nb
     }
 }
 
+/* Copies the block buffer to the in-place array: ordinary stores, the lines
+ * were just read and are in the cache; for the push kernel the rows are
+ * shifted by c_q and so not aligned. */
+static void store_block(double *const out[LB_Q], int nb, double (*restrict buf)[KERNEL_BLOCK])
+{
+    for (int q = 0; q < LB_Q; q++) {
+        double *restrict d = out[q];
+#pragma omp simd
+        for (int x = 0; x < nb; x++) {
+            d[x] = buf[q][x];
+        }
+    }
+}
+
+static void kernel_consts(const kernel_params_t *p, consts_t *k)
+{
+    k->wp = p->omega_plus;
+    k->wm = p->omega_minus;
+    k->gp = 1.0 - 0.5 * p->omega_plus;
+    k->fx = p->force[0];
+    k->fy = p->force[1];
+    k->fz = p->force[2];
+    k->sm[0] = 0.0;
+    for (int q = 1; q <= LB_HALF; q++) {
+        const double cf = lb_c[q][0] * k->fx + lb_c[q][1] * k->fy + lb_c[q][2] * k->fz;
+        k->sm[q] = (1.0 - 0.5 * p->omega_minus) * 3.0 * lb_w[q] * cf;
+    }
+}
+
 void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const double *restrict src, double *restrict dst)
 {
     consts_t k;
-    k.wp = p->omega_plus;
-    k.wm = p->omega_minus;
-    k.gp = 1.0 - 0.5 * p->omega_plus;
-    k.fx = p->force[0];
-    k.fy = p->force[1];
-    k.fz = p->force[2];
-    k.sm[0] = 0.0;
-    for (int q = 1; q <= LB_HALF; q++) {
-        const double cf = lb_c[q][0] * k.fx + lb_c[q][1] * k.fy + lb_c[q][2] * k.fz;
-        k.sm[q] = (1.0 - 0.5 * p->omega_minus) * 3.0 * lb_w[q] * cf;
-    }
+    kernel_consts(p, &k);
     ptrdiff_t off[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
         off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
@@ -178,13 +200,58 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const double *restr
                 const size_t row = grid_index(g, 0, y, z);
                 for (int x0 = 0; x0 < sx; x0 += KERNEL_BLOCK) {
                     const int nb = sx - x0 < KERNEL_BLOCK ? sx - x0 : KERNEL_BLOCK;
-                    collide_block(&k, src, ncells, off, row + (size_t)x0, nb, buf);
-                    store_block(dst, ncells, row + (size_t)x0, nb, buf);
+                    const size_t base = row + (size_t)x0;
+                    const double *in[LB_Q];
+                    for (int q = 0; q < LB_Q; q++) {
+                        in[q] = src + (size_t)q * ncells + base - off[q];
+                    }
+                    collide_block(&k, in, nb, buf);
+                    store_block_nt(dst, ncells, base, nb, buf);
                 }
             }
         }
 #if defined(__SSE2__)
         _mm_sfence(); /* non-temporal stores are weakly ordered */
 #endif
+    }
+}
+
+/* The in-place (AA) step, layout.h: push = 0 the local kernel (slot q of x
+ * in, slot qbar of x out), push = 1 the push kernel (slot qbar of x - c_q in,
+ * slot q of x + c_q out). The ghost columns of interior rows are computed
+ * too; the push kernel then reads and writes one cell beyond the first and
+ * the last interior row, inside the array's margin (fluid.c). */
+void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, double *f, int push)
+{
+    consts_t k;
+    kernel_consts(p, &k);
+    ptrdiff_t off[LB_Q];
+    for (int q = 0; q < LB_Q; q++) {
+        off[q] = push ? grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]) : 0;
+    }
+    const int ny = g->n[1], nz = g->n[2], sx = g->s[0];
+    const size_t ncells = g->ncells;
+#pragma omp parallel
+    {
+        double buf[LB_Q][KERNEL_BLOCK] __attribute__((aligned(64)));
+#pragma omp for collapse(2) schedule(static)
+        for (int z = 1; z <= nz; z++) {
+            for (int y = 1; y <= ny; y++) {
+                const size_t row = grid_index(g, 0, y, z);
+                for (int x0 = 0; x0 < sx; x0 += KERNEL_BLOCK) {
+                    const int nb = sx - x0 < KERNEL_BLOCK ? sx - x0 : KERNEL_BLOCK;
+                    const size_t base = row + (size_t)x0;
+                    const double *in[LB_Q];
+                    double *out[LB_Q];
+                    for (int q = 0; q < LB_Q; q++) {
+                        const int o = lb_opposite(q);
+                        in[q] = f + (size_t)(push ? o : q) * ncells + base - off[q];
+                        out[q] = f + (size_t)(push ? q : o) * ncells + base + off[q];
+                    }
+                    collide_block(&k, in, nb, buf);
+                    store_block(out, nb, buf);
+                }
+            }
+        }
     }
 }

@@ -25,5 +25,9 @@ double kernel_omega_minus(double omega_plus, double magic);
 
 void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const double *restrict src,
                            double *restrict dst);
+/* The in-place (AA) step on one array (layout.h): push = 0 the local kernel
+ * (from the PUSHED state to SWAPPED), push = 1 the push kernel (SWAPPED to
+ * PUSHED). f needs one cell of margin before and after its ncells * 19 values. */
+void kernel_in_place(const grid_t *g, const kernel_params_t *p, double *f, int push);
 
 #endif

@@ -14,8 +14,10 @@ void kernel_stream_collide_base(const grid_t *g, const kernel_params_t *p, const
 void kernel_stream_collide_v3(const grid_t *g, const kernel_params_t *p, const double *restrict src,
                               double *restrict dst);
 
-void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const double *restrict src,
-                           double *restrict dst)
+void kernel_in_place_base(const grid_t *g, const kernel_params_t *p, double *f, int push);
+void kernel_in_place_v3(const grid_t *g, const kernel_params_t *p, double *f, int push);
+
+static int use_v3(void)
 {
 #if defined(__x86_64__) && defined(__GNUC__)
     static int v3 = -1;
@@ -24,10 +26,27 @@ void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const doub
         const char *force = getenv("AGGLO_KERNEL"); /* "base": the baseline kernel (tests, comparisons) */
         v3 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && !(force && strcmp(force, "base") == 0);
     }
-    if (v3) {
-        kernel_stream_collide_v3(g, p, src, dst);
-        return;
-    }
+    return v3;
+#else
+    return 0;
 #endif
-    kernel_stream_collide_base(g, p, src, dst);
+}
+
+void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const double *restrict src,
+                           double *restrict dst)
+{
+    if (use_v3()) {
+        kernel_stream_collide_v3(g, p, src, dst);
+    } else {
+        kernel_stream_collide_base(g, p, src, dst);
+    }
+}
+
+void kernel_in_place(const grid_t *g, const kernel_params_t *p, double *f, int push)
+{
+    if (use_v3()) {
+        kernel_in_place_v3(g, p, f, push);
+    } else {
+        kernel_in_place_base(g, p, f, push);
+    }
 }

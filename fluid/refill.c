@@ -22,19 +22,18 @@ static int neighbour(const grid_t *g, const int periodic[3], const int X[3], int
     return 1;
 }
 
-static void moments(const double *f, size_t N, size_t i, double *rho, double u[3])
+static void moments(const pops_t *p, size_t i, double *rho, double u[3])
 {
     double j[3];
-    *rho = lb_moments(f, N, i, j);
+    *rho = pops_moments(p, i, j);
     for (int a = 0; a < 3; a++) {
         u[a] = j[a] / *rho;
     }
 }
 
-void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int periodic[3], double *f,
+void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int periodic[3], const pops_t *p,
                  const int X[3], const double normal[3], const double us[3], double mom[3])
 {
-    const size_t N = g->ncells;
     const size_t self = grid_index(g, X[0], X[1], X[2]);
     double rho = 0.0;
     int nrho = 0, best = -1;
@@ -45,7 +44,7 @@ void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int
             continue;
         }
         double r, u[3];
-        moments(f, N, i, &r, u);
+        moments(p, i, &r, u);
         rho += r;
         nrho++;
         const double len = sqrt((double)(lb_c[q][0] * lb_c[q][0] + lb_c[q][1] * lb_c[q][1] + lb_c[q][2] * lb_c[q][2]));
@@ -62,14 +61,14 @@ void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int
         neighbour(g, periodic, X, best, 1, &i1);
         const int two = neighbour(g, periodic, X, best, 2, &i2) && flags[i2] == 0;
         double r1, u1[3], r2 = 0.0, u2[3] = {0.0, 0.0, 0.0};
-        moments(f, N, i1, &r1, u1);
+        moments(p, i1, &r1, u1);
         if (two) {
-            moments(f, N, i2, &r2, u2);
+            moments(p, i2, &r2, u2);
         }
         for (int q = 0; q < LB_Q; q++) {
-            const double n1 = f[(size_t)q * N + i1] - lb_feq(q, r1, u1[0], u1[1], u1[2]);
+            const double n1 = pops_post(p, q, i1) - lb_feq(q, r1, u1[0], u1[1], u1[2]);
             if (two) {
-                const double n2 = f[(size_t)q * N + i2] - lb_feq(q, r2, u2[0], u2[1], u2[2]);
+                const double n2 = pops_post(p, q, i2) - lb_feq(q, r2, u2[0], u2[1], u2[2]);
                 neq[q] = 2.0 * n1 - n2;
             } else {
                 neq[q] = n1;
@@ -79,7 +78,7 @@ void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int
     mom[0] = mom[1] = mom[2] = 0.0;
     for (int q = 0; q < LB_Q; q++) {
         const double v = lb_feq(q, rho, us[0], us[1], us[2]) + neq[q];
-        f[(size_t)q * N + self] = v;
+        p->f[pops_post_slot(p, q, self)] = v;
         for (int a = 0; a < 3; a++) {
             mom[a] += lb_c[q][a] * v;
         }

@@ -15,13 +15,14 @@
 
 #include "../common/scene.h"
 #include "grid.h"
+#include "layout.h"
 
 #include <stdint.h>
 
 /* cell: allocated coordinates X; normal: unit outward normal of the sphere at
  * the cell; us: surface velocity (lattice). Writes the 19 populations of the
- * cell in f and returns their momentum in mom[3]. */
-void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int periodic[3], double *f,
+ * cell (its post-collision slots in p) and returns their momentum in mom[3]. */
+void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int periodic[3], const pops_t *p,
                  const int X[3], const double normal[3], const double us[3], double mom[3]);
 
 #endif

@@ -21,6 +21,7 @@
 
 #include "../common/scene.h"
 #include "grid.h"
+#include "layout.h"
 #include "units.h"
 
 #include <stddef.h>
@@ -37,6 +38,7 @@ typedef struct {
     double fprev[3], tprev[3];
     double zt, zr;           /* drag coefficients of the last step: -dF/dv and -dT/dw (isotropic parts) */
     double density_ratio;    /* particle / fluid density */
+    double cmap[3];          /* centre at the last map stage: a sphere that has not moved keeps its links */
     int averaging;           /* deliver the load averaged over two steps (common/coupling.h) */
     /* period-2 watch (fluid.c): the last three motions (velocity, surface
      * speed), steps in a row that alternate and that grow, warned once */
@@ -46,23 +48,29 @@ typedef struct {
     int nhist, nalt, ngrow, warned;
 } sphere_t;
 
+/* Link from fluid cell x_f along c_q into a solid cell: it writes
+ * in_slot(qbar, x_f) (layout.h), the population x_f receives from the solid. */
 typedef struct {
-    size_t dst;           /* slot written: qbar * ncells + (x_f + c_q), unwrapped */
     size_t xf, xff, xfff; /* interior cells along -c_q (periodic wrap applied) */
     double a[3], b[2];    /* f_new = sum a_k f~_q(x_f - k c_q) + sum b_k f~_qbar(x_f - k c_q) + moving term */
     double corr;          /* + corr n_q^-(x_f), pre-collision (multireflection) */
-    size_t pre_q;         /* slot of the previous step's array that x_f pulled f_q from */
     double rw[3];         /* wall point minus sphere centre */
     int q, sphere;
+    int fresh;            /* x_f was uncovered this step: no multireflection correction */
     double delta;
 } sphere_link_t;
+
+typedef struct {
+    sphere_link_t *l;
+    size_t n, cap;
+} link_list_t;
 
 typedef struct {
     int n;
     sphere_t *s;
     /* per-step lists */
-    sphere_link_t *links;
-    size_t nlinks, cap_links;
+    link_list_t *lists;   /* the links of each sphere (spheres.c build_links) */
+    size_t nlinks;        /* all spheres */
     size_t *solid;
     size_t nsolid, cap_solid;
     size_t *fresh; /* cells uncovered this step */
@@ -74,6 +82,7 @@ typedef struct {
     refill_t refill;
     force_method_t force;
     int first;
+    int stale;            /* the links do not match the flags (a restored state): map anew */
     double omega_minus;
     double body_force[3]; /* lattice: the equilibrium velocity is (j~ - F/2)/rho */
 } spheres_t;
@@ -82,13 +91,14 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
                       const log_t *log);
 void spheres_free(spheres_t *sp);
 
-/* Map stage on post-collision populations f: flags, covering, refill, links. */
-status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, double *f, const log_t *log);
+/* Map stage on post-collision populations p: flags, covering, refill, links. */
+status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_t *p, const log_t *log);
 /* Fill stage: boundary populations and the momentum exchanged per sphere.
- * prev is the other population array: the previous step's post-collision
- * values with its boundary values, from which x_f pulled its pre-collision
- * populations (needed by multireflection only). */
-void spheres_fill(spheres_t *sp, const grid_t *g, double *f, const double *prev);
+ * Multireflection needs the pre-collision populations of x_f: with two
+ * arrays, prev is the other array (PULL state: the previous step's values
+ * that x_f pulled); in place (prev NULL) they follow from the post-collision
+ * ones (spheres.c). */
+void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *p, const pops_t *prev);
 /* Moves prescribed and fixed spheres by one step (dt = 1). */
 void spheres_advance_prescribed(spheres_t *sp, const grid_t *g, long step);
 

@@ -1,7 +1,8 @@
 /* state.c — serialisation of the fluid component's state (fluid.h).
  *
- * Layout: a header (magic, version, grid, sphere count), the step counter,
- * both population arrays of every allocated cell (the current post-collision
+ * Layout: a header (magic, version, grid, sphere count, streaming layout and
+ * its state), the step counter, the population arrays of every allocated
+ * cell (in place: the one array; two arrays: the current post-collision
  * values, and the previous ones that multireflection reads), the cell flags,
  * the sphere records and the list of solid cells (the map stage needs the
  * previous solid set to find uncovered cells). Links are rebuilt by the
@@ -14,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define STATE_MAGIC 0x464c5549444c4231ull /* "FLUIDLB1" */
+#define STATE_MAGIC 0x464c5549444c4232ull /* "FLUIDLB2" */
 
 typedef struct {
     uint64_t magic;
@@ -25,12 +26,12 @@ typedef struct {
     uint64_t nsolid;
     int64_t covered, uncovered;
     int32_t first;
-    int32_t pad;
+    int16_t streaming, layout;
 } state_header_t;
 
 size_t fluid_state_size(const fluid_t *fl)
 {
-    return sizeof(state_header_t) + 2 * (size_t)LB_Q * fl->g.ncells * sizeof(double) + fl->g.ncells +
+    return sizeof(state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.ncells * sizeof(double) + fl->g.ncells +
            (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t);
 }
 
@@ -53,14 +54,16 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
     h.covered = fl->spheres.covered_total;
     h.uncovered = fl->spheres.uncovered_total;
     h.first = fl->spheres.first;
+    h.streaming = (int16_t)fl->streaming;
+    h.layout = (int16_t)fl->layout;
     unsigned char *p = buf;
     memcpy(p, &h, sizeof h);
     p += sizeof h;
     const size_t fbytes = (size_t)LB_Q * fl->g.ncells * sizeof(double);
-    memcpy(p, fl->f[fl->cur], fbytes);
-    p += fbytes;
-    memcpy(p, fl->f[1 - fl->cur], fbytes);
-    p += fbytes;
+    for (int k = 0; k < fluid_arrays(fl); k++) {
+        memcpy(p, fl->f[k == 0 ? fl->cur : 1 - fl->cur], fbytes);
+        p += fbytes;
+    }
     memcpy(p, fl->flags, fl->g.ncells);
     p += fl->g.ncells;
     if (fl->spheres.n > 0) {
@@ -81,13 +84,18 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     }
     memcpy(&h, buf, sizeof h);
     if (h.magic != STATE_MAGIC || h.n[0] != fl->g.n[0] || h.n[1] != fl->g.n[1] || h.n[2] != fl->g.n[2] ||
-        h.nspheres != fl->spheres.n || h.ncells != fl->g.ncells) {
+        h.nspheres != fl->spheres.n || h.ncells != fl->g.ncells || h.streaming != (int16_t)fl->streaming) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid",
-                       "the state does not belong to this scene (grid %d x %d x %d with %d spheres expected)",
-                       fl->g.n[0], fl->g.n[1], fl->g.n[2], fl->spheres.n);
+                       "the state does not belong to this scene (grid %d x %d x %d with %d spheres and fluid.streaming "
+                       "%s expected)",
+                       fl->g.n[0], fl->g.n[1], fl->g.n[2], fl->spheres.n,
+                       fl->streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place");
+    }
+    if (h.layout != LAYOUT_PULL && h.layout != LAYOUT_SWAPPED && h.layout != LAYOUT_PUSHED) {
+        return log_msg(&fl->log, STATUS_ERROR, "fluid", "the state names layout state %d (0 to 2 expected)", h.layout);
     }
     const size_t fbytes = (size_t)LB_Q * fl->g.ncells * sizeof(double);
-    const size_t need = sizeof h + 2 * fbytes + fl->g.ncells + (size_t)h.nspheres * sizeof(sphere_t) +
+    const size_t need = sizeof h + (size_t)fluid_arrays(fl) * fbytes + fl->g.ncells + (size_t)h.nspheres * sizeof(sphere_t) +
                         (size_t)h.nsolid * sizeof(size_t);
     if (size < need) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "state of %zu bytes is shorter than its %zu bytes", size,
@@ -104,10 +112,11 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     }
     const unsigned char *p = buf;
     p += sizeof h;
-    memcpy(fl->f[fl->cur], p, fbytes);
-    p += fbytes;
-    memcpy(fl->f[1 - fl->cur], p, fbytes);
-    p += fbytes;
+    for (int k = 0; k < fluid_arrays(fl); k++) {
+        memcpy(fl->f[k == 0 ? fl->cur : 1 - fl->cur], p, fbytes);
+        p += fbytes;
+    }
+    fl->layout = (layout_state_t)h.layout;
     memcpy(fl->flags, p, fl->g.ncells);
     p += fl->g.ncells;
     if (h.nspheres > 0) {
@@ -121,6 +130,7 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     fl->spheres.covered_total = h.covered;
     fl->spheres.uncovered_total = h.uncovered;
     fl->spheres.first = h.first;
+    fl->spheres.stale = 1; /* links are not saved: the next map stage builds them */
     fl->step = h.step;
     return STATUS_OK;
 }

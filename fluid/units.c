@@ -44,9 +44,10 @@ status_t units_derive(const scene_t *s, const log_t *log, units_t *u)
     return STATUS_OK;
 }
 
-double units_bytes_per_cell(void)
+double units_bytes_per_cell(const scene_t *s)
 {
-    return 2.0 * LB_Q * sizeof(double) + 1.0;
+    const double arrays = s->fluid.streaming == STREAMING_TWO_ARRAY ? 2.0 : 1.0;
+    return arrays * LB_Q * sizeof(double) + 1.0;
 }
 
 /* Smallest extent between two non-periodic faces across an axis other than
@@ -140,7 +141,7 @@ void units_assess(const scene_t *s, const units_t *u, const log_t *log, units_as
     a->steps = (long)ceil(s->run.end_time / u->dt - 1e-9);
     grid_t gr;
     grid_init(&gr, u->n);
-    a->bytes = (double)gr.ncells * units_bytes_per_cell();
+    a->bytes = (double)gr.ncells * units_bytes_per_cell(s);
 
     if (a->mach > 0.1) {
         log_msg(log, STATUS_WARNING, "units",

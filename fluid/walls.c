@@ -67,36 +67,19 @@ static status_t push(walls_t *w, size_t *cap, const ghost_link_t *l, const log_t
     return STATUS_OK;
 }
 
-static int by_dst(const void *a, const void *b)
+static status_t push_copy(walls_t *w, size_t *cap, size_t cell, int q, size_t src, int sq, const log_t *log)
 {
-    const size_t x = *(const size_t *)a, y = *(const size_t *)b;
-    return x < y ? -1 : (x > y ? 1 : 0);
-}
-
-/* Moves the copy links out of the general list into (dst, src) pairs. */
-static status_t split_copies(walls_t *w, const log_t *log)
-{
-    size_t nc = 0;
-    for (size_t i = 0; i < w->nlinks; i++) {
-        nc += w->links[i].kind == LINK_COPY;
-    }
-    w->copies = malloc(2 * (nc ? nc : 1) * sizeof(size_t));
-    if (w->copies == NULL) {
-        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for %zu periodic links", nc);
-    }
-    size_t k = 0, m = 0;
-    for (size_t i = 0; i < w->nlinks; i++) {
-        if (w->links[i].kind == LINK_COPY) {
-            w->copies[2 * k] = w->links[i].dst;
-            w->copies[2 * k + 1] = w->links[i].src;
-            k++;
-        } else {
-            w->links[m++] = w->links[i];
+    if (w->ncopies == *cap) {
+        size_t nc = *cap ? 2 * *cap : 1024;
+        copy_link_t *p = realloc(w->copies, nc * sizeof *p);
+        if (p == NULL) {
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory for %zu periodic and free-slip links (%zu bytes)",
+                           nc, nc * sizeof *p);
         }
+        w->copies = p;
+        *cap = nc;
     }
-    qsort(w->copies, nc, 2 * sizeof(size_t), by_dst);
-    w->ncopies = nc;
-    w->nlinks = m;
+    w->copies[w->ncopies++] = (copy_link_t){(uint32_t)cell, (uint32_t)src, (uint8_t)q, (uint8_t)sq};
     return STATUS_OK;
 }
 
@@ -106,8 +89,16 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
     w->nlinks = 0;
     w->copies = NULL;
     w->ncopies = 0;
-    size_t cap = 0;
-    const size_t N = g->ncells;
+    for (int a = 0; a < 3; a++) {
+        w->periodic[a] = s->domain.faces[2 * a].type == FACE_PERIODIC;
+    }
+    size_t cap = 0, capc = 0;
+    if (g->ncells > UINT32_MAX) {
+        return log_msg(log, STATUS_ERROR, "fluid",
+                       "%zu cells (with ghost layers) in one process: at most %u (about 1600^3); split the domain "
+                       "over MPI ranks",
+                       g->ncells, UINT32_MAX);
+    }
     for (int z = 1; z <= g->n[2]; z++) {
         for (int y = 1; y <= g->n[1]; y++) {
             for (int x = 1; x <= g->n[0]; x++) {
@@ -136,17 +127,15 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                             }
                         }
                     }
-                    if (!any) {
-                        continue;
+                    if (!any || best < 0) {
+                        continue; /* interior, or only periodic faces crossed: periodic_fill */
                     }
                     ghost_link_t l = {0};
                     l.q = q;
-                    l.dst = (size_t)q * N + grid_index(g, gh[0], gh[1], gh[2]);
                     l.cell = grid_index(g, x, y, z);
-                    const size_t bounced = (size_t)lb_opposite(q) * N + l.cell;
+                    int sq = q;
                     if (best < 0) {
                         l.kind = LINK_COPY;
-                        l.src = (size_t)q * N + grid_index(g, sp[0], sp[1], sp[2]);
                     } else {
                         const face_t *face = &s->domain.faces[best];
                         switch (face->type) {
@@ -159,14 +148,12 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                                     sp[a] = crossed[a] == 0 ? 1 : g->n[a];
                                 }
                             }
-                            int qm = 0;
                             for (int r = 1; r < LB_Q; r++) {
                                 if (lb_c[r][0] == cm[0] && lb_c[r][1] == cm[1] && lb_c[r][2] == cm[2]) {
-                                    qm = r;
+                                    sq = r;
                                 }
                             }
                             l.kind = LINK_COPY;
-                            l.src = (size_t)qm * N + grid_index(g, sp[0], sp[1], sp[2]);
                             break;
                         }
                         case FACE_NO_SLIP:
@@ -181,7 +168,6 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                                 inlet_velocity(s, g, u, best, xf, q, uw);
                             }
                             l.kind = LINK_BOUNCE;
-                            l.src = bounced;
                             l.coef = 6.0 * lb_w[q] * (lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2]);
                             break;
                         }
@@ -193,7 +179,6 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                                 x2[a] = xf[a];
                             }
                             l.kind = LINK_ANTI;
-                            l.src = bounced;
                             l.cell2 = grid_index(g, x2[0], x2[1], x2[2]);
                             l.coef = 1.0 + face->pressure / units_pressure(u) / LB_CS2;
                             break;
@@ -202,17 +187,16 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                             break;
                         }
                     }
-                    if (push(w, &cap, &l, log) != STATUS_OK) {
+                    const status_t st = l.kind == LINK_COPY
+                                            ? push_copy(w, &capc, l.cell, q, grid_index(g, sp[0], sp[1], sp[2]), sq, log)
+                                            : push(w, &cap, &l, log);
+                    if (st != STATUS_OK) {
                         walls_free(w);
                         return STATUS_ERROR;
                     }
                 }
             }
         }
-    }
-    if (split_copies(w, log) != STATUS_OK) {
-        walls_free(w);
-        return STATUS_ERROR;
     }
     return STATUS_OK;
 }
@@ -227,53 +211,128 @@ void walls_free(walls_t *w)
     w->ncopies = 0;
 }
 
-static void moments(const double *f, size_t N, size_t cell, double *rho, double u[3])
+static void moments(const pops_t *p, size_t cell, double *rho, double u[3])
 {
     double j[3];
-    *rho = lb_moments(f, N, cell, j);
+    *rho = pops_moments(p, cell, j);
     for (int a = 0; a < 3; a++) {
         u[a] = j[a] / *rho;
     }
 }
 
-void walls_fill(const walls_t *w, const grid_t *g, double *f)
+/* Periodic faces without a list: the classic ghost-layer copy, one axis after
+ * the other, so that populations that cross an edge of two periodic faces
+ * wrap on both axes. Only the directions that cross the face are copied.
+ *   PULL, SWAPPED  the post-collision value of a cell sits at the cell (slot q,
+ *                  or qbar): each ghost cell receives it from the interior cell
+ *                  it wraps to; axes x, y, z in turn, the ghost cells of the
+ *                  axes already done included.
+ *   PUSHED         the push kernel left the values of the cells next to a face
+ *                  in the ghost cells beyond it (slot q at y + c_q): each is
+ *                  moved to the interior cell the ghost wraps to; axes z, y, x
+ *                  in turn, the ghost cells of the axes still to come included
+ *                  (in both orders: the axes before a in x, y, z).
+ * Links across a periodic and a non-periodic face belong to the wall (walls
+ * list, filled afterwards), which overwrites what this copy wrote there. */
+static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[3], const int hi[3])
 {
-    const size_t N = g->ncells;
+    const int push = p->state == LAYOUT_PUSHED, n = g->n[a];
+    int qs[5], nq = 0;
+    for (int side = 0; side < 2; side++) {
+        /* ghost at coordinate 0 (side 0) or n + 1 (side 1); its directions */
+        const int dir = push ? (side == 0 ? -1 : 1) : (side == 0 ? 1 : -1);
+        nq = 0;
+        for (int q = 1; q < LB_Q; q++) {
+            if (lb_c[q][a] == dir) {
+                qs[nq++] = q;
+            }
+        }
+        const int ghost = side == 0 ? 0 : n + 1, wrapped = side == 0 ? n : 1;
+        int X[3];
+        const int b = (a + 1) % 3, c = (a + 2) % 3;
+#pragma omp parallel for collapse(2) private(X) schedule(static)
+        for (int j = lo[c]; j <= hi[c]; j++) {
+            for (int i = lo[b]; i <= hi[b]; i++) {
+                X[a] = ghost;
+                X[b] = i;
+                X[c] = j;
+                const size_t gi = grid_index(g, X[0], X[1], X[2]);
+                X[a] = wrapped;
+                const size_t wi = grid_index(g, X[0], X[1], X[2]);
+                for (int k = 0; k < nq; k++) {
+                    const int q = qs[k];
+                    const size_t slot = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(q) : q) * p->n;
+                    if (push) {
+                        p->f[slot + wi] = p->f[slot + gi];
+                    } else {
+                        p->f[slot + gi] = p->f[slot + wi];
+                    }
+                }
+            }
+        }
+    }
+}
+
+static void periodic_fill(const walls_t *w, const grid_t *g, const pops_t *p)
+{
+    const int push = p->state == LAYOUT_PUSHED;
+    for (int k = 0; k < 3; k++) {
+        const int a = push ? 2 - k : k;
+        if (!w->periodic[a]) {
+            continue;
+        }
+        int lo[3], hi[3];
+        for (int b = 0; b < 3; b++) {
+            /* the axes before a (x before y before z) with their ghost
+             * cells: done before a (pull), or still to come after a (push) */
+            const int with_ghosts = b < a;
+            lo[b] = with_ghosts ? 0 : 1;
+            hi[b] = with_ghosts ? g->n[b] + 1 : g->n[b];
+        }
+        periodic_axis(g, p, a, lo, hi);
+    }
+}
+
+void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
+{
+    periodic_fill(w, g, p);
+    double *f = p->f;
     const ptrdiff_t nc = (ptrdiff_t)w->ncopies, n = (ptrdiff_t)w->nlinks;
-    const size_t *restrict cp = w->copies;
+    const copy_link_t *restrict cp = w->copies;
 #pragma omp parallel
     {
 #pragma omp for schedule(static) nowait
     for (ptrdiff_t i = 0; i < nc; i++) {
-        f[cp[2 * i]] = f[cp[2 * i + 1]];
+        f[pops_in_slot(p, cp[i].q, cp[i].cell)] = f[pops_post_slot(p, cp[i].sq, cp[i].src)];
     }
 #pragma omp for schedule(static)
     for (ptrdiff_t i = 0; i < n; i++) {
         const ghost_link_t *l = &w->links[i];
+        const size_t dst = pops_in_slot(p, l->q, l->cell);
+        const double bounced = pops_post(p, lb_opposite(l->q), l->cell);
         switch (l->kind) {
         case LINK_COPY:
-            f[l->dst] = f[l->src];
-            break;
+            break; /* all in w->copies */
         case LINK_BOUNCE: {
-            double v = f[l->src];
+            double v = bounced;
             if (l->coef != 0.0) {
                 double rho, u[3];
-                moments(f, N, l->cell, &rho, u);
+                moments(p, l->cell, &rho, u);
                 v += l->coef * rho;
             }
-            f[l->dst] = v;
+            f[dst] = v;
             break;
         }
         case LINK_ANTI: {
             double r1, r2, u1[3], u2[3], uw[3];
-            moments(f, N, l->cell, &r1, u1);
-            moments(f, N, l->cell2, &r2, u2);
+            moments(p, l->cell, &r1, u1);
+            moments(p, l->cell2, &r2, u2);
             for (int a = 0; a < 3; a++) {
                 uw[a] = 1.5 * u1[a] - 0.5 * u2[a];
             }
             const double cu = lb_c[l->q][0] * uw[0] + lb_c[l->q][1] * uw[1] + lb_c[l->q][2] * uw[2];
             const double uu = uw[0] * uw[0] + uw[1] * uw[1] + uw[2] * uw[2];
-            f[l->dst] = -f[l->src] + 2.0 * lb_w[l->q] * l->coef * (1.0 + 4.5 * cu * cu - 1.5 * uu);
+            f[dst] = -bounced + 2.0 * lb_w[l->q] * l->coef * (1.0 + 4.5 * cu * cu - 1.5 * uu);
             break;
         }
         }

@@ -3,8 +3,8 @@
  * Every population that an interior cell pulls from a ghost cell is one link:
  * the slot to write (ghost cell, direction q) and how to get its value from
  * post-collision populations of interior cells:
- *   copy        periodic faces, and free-slip faces (specular reflection:
- *               the mirrored direction from the cell beside the ghost);
+ *   copy        free-slip faces (specular reflection: the mirrored direction
+ *               from the cell beside the ghost);
  *   bounce      half-way bounce-back, with the moving-wall term
  *               6 w_q rho c_q.u_w (Ladd, J. Fluid Mech. 271 (1994) 285)
  *               for moving walls and velocity inlets;
@@ -13,21 +13,25 @@
  *               f_q = -f~_qbar + 2 w_q rho_w [1 + 4.5 (c.u_w)^2 - 1.5 u_w^2],
  *               u_w extrapolated from the two cells next to the face.
  * Where a link crosses two non-periodic faces (an edge), the stronger
- * condition wins: no-slip, moving wall, inlet, outlet, free-slip. */
+ * condition wins: no-slip, moving wall, inlet, outlet, free-slip; any of
+ * them wins over a periodic face. Periodic faces need no list: their ghost
+ * layers are copied (walls.c periodic_fill) before the links are filled. */
 #ifndef FLUID_WALLS_H
 #define FLUID_WALLS_H
 
 #include "../common/scene.h"
 #include "grid.h"
+#include "layout.h"
 #include "units.h"
 
 #include <stddef.h>
+#include <stdint.h>
 
 typedef enum { LINK_COPY, LINK_BOUNCE, LINK_ANTI } link_kind_t;
 
+/* A link writes in_slot(q, cell) (layout.h): the population that the fluid
+ * cell receives from its ghost neighbour cell - c_q. */
 typedef struct {
-    size_t dst;   /* q * ncells + ghost cell */
-    size_t src;   /* slot read: copy from it, or the bounced population at the fluid cell */
     size_t cell;  /* the fluid cell the link ends in */
     size_t cell2; /* anti: the next cell inwards, for the extrapolation of u_w */
     double coef;  /* bounce: 6 w_q c_q.u_w (times rho); anti: rho_w */
@@ -35,16 +39,24 @@ typedef struct {
     int kind;
 } ghost_link_t;
 
+/* Copy link: in_slot(q, cell) <- post_slot(sq, src); 12 bytes, for the many
+ * links of periodic faces (a grid of at most 2^32 cells per process). */
+typedef struct {
+    uint32_t cell, src;
+    uint8_t q, sq;
+} copy_link_t;
+
 typedef struct {
     ghost_link_t *links; /* bounce and anti links */
     size_t nlinks;
-    size_t *copies;      /* copy links as (dst, src) pairs, sorted by dst: a tight, cache-friendly loop */
+    copy_link_t *copies; /* free-slip copy links in cell order: a tight, cache-friendly loop */
     size_t ncopies;
+    int periodic[3];     /* periodic axes: filled by a copy of the ghost layers, no list (walls.c) */
 } walls_t;
 
 status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_t *u, const log_t *log);
 void walls_free(walls_t *w);
-/* Fills the ghost slots of f (post-collision populations of one step). */
-void walls_fill(const walls_t *w, const grid_t *g, double *f);
+/* Writes the populations that interior cells receive from ghost cells. */
+void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p);
 
 #endif

@@ -125,8 +125,19 @@ static void check_links(scene_t *s)
     }
     CU_ASSERT_EQUAL(sp->nlinks, pairs);
     double maxerr = 0.0;
-    for (size_t j = 0; j < sp->nlinks; j++) {
-        const sphere_link_t *l = &sp->links[j];
+    size_t listed = 0;
+    for (int k = 0; k < sp->n; k++) {
+        listed += sp->lists[k].n;
+    }
+    CU_ASSERT_EQUAL(listed, pairs);
+    for (size_t j = 0; j < listed; j++) {
+        size_t jj = j;
+        int k = 0;
+        while (jj >= sp->lists[k].n) {
+            jj -= sp->lists[k++].n;
+        }
+        const sphere_link_t *l = &sp->lists[k].l[jj];
+        CU_ASSERT_EQUAL(l->sphere, k);
         const double x[3] = {(double)(l->xf % (size_t)g->s[0]), (double)(l->xf / (size_t)g->s[0] % (size_t)g->s[1]),
                              (double)(l->xf / ((size_t)g->s[0] * (size_t)g->s[1]))};
         const double ref = brute_delta(x, l->q, s, g);
@@ -147,8 +158,8 @@ static void test_links_single_and_hand_values(void)
      * cell (8,8,6) along (-1,-1,0): (2-t)^2 * 2 = 6.25, t = 2 - 2.5/sqrt(2) */
     fluid_t *fl = test_fluid(&s);
     int found = 0;
-    for (size_t j = 0; j < fl->spheres.nlinks; j++) {
-        const sphere_link_t *l = &fl->spheres.links[j];
+    for (size_t j = 0; j < fl->spheres.lists[0].n; j++) {
+        const sphere_link_t *l = &fl->spheres.lists[0].l[j];
         if (l->xf == grid_index(&fl->g, 9, 6, 6) && l->q == 10) {
             CU_ASSERT_DOUBLE_EQUAL(l->delta, 0.5, 1e-14);
             found++;

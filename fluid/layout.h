@@ -1,0 +1,103 @@
+/* layout.h — where a population lives in memory, for both streaming layouts.
+ *
+ * Two layouts (scene key fluid.streaming):
+ *   two_array  pull from one array, write the other (kernel.c); the arrays swap.
+ *   in_place   one array, the AA pattern (Bailey, Myre, Walsh, Lilja & Bader,
+ *              ICPP 2009): steps alternate between a local kernel, which reads
+ *              the 19 slots of a cell and writes them back with the directions
+ *              swapped, and a push kernel, which reads a cell's populations
+ *              from its neighbours (swapped) and writes its results to them.
+ *              Each cell reads and writes the same 19 slots, so the update is
+ *              in place and thread-safe; half the memory, the same traffic.
+ *
+ * Between two steps the array is in one of three states. Everything outside
+ * the kernels (walls, spheres, refill, fields, state) reads and writes through
+ * two maps, and so works unchanged in every state:
+ *   post_slot(q, x)  where the post-collision f~_q(x) of the last step is;
+ *   in_slot(q, x)    where the next kernel reads the f_q that enters x,
+ *                    i.e. f~_q(x - c_q) after streaming. A boundary writes it
+ *                    when x - c_q is a ghost or solid cell.
+ *
+ *   state     next kernel     post_slot(q, x)          in_slot(q, x)
+ *   PULL      two_array       q,    x                  q,    x - c_q
+ *   SWAPPED   push            qbar, x                  qbar, x - c_q
+ *   PUSHED    local           q,    x + c_q            q,    x
+ *
+ * (slot "q, x" is f[q * ncells + x]). The local kernel leaves the SWAPPED
+ * state, the push kernel the PUSHED one. In every state in_slot(q, x) is the
+ * slot of post_slot(q, x - c_q): a boundary that writes in_slot(q, x) for a
+ * fluid x overwrites only the (meaningless) post-collision value of the ghost
+ * or solid cell x - c_q, never a value of a fluid cell. An MPI halo exchange
+ * is the same copy, in_slot(q, x) <- post_slot(q, remote cell), as a
+ * periodic face. */
+#ifndef FLUID_LAYOUT_H
+#define FLUID_LAYOUT_H
+
+#include "grid.h"
+#include "lattice.h"
+
+#include <stddef.h>
+
+typedef enum { LAYOUT_PULL, LAYOUT_SWAPPED, LAYOUT_PUSHED } layout_state_t;
+
+typedef struct {
+    double *f;
+    size_t n;             /* cells per population (grid.h ncells) */
+    ptrdiff_t off[LB_Q];  /* offset of the neighbour at +c_q */
+    layout_state_t state;
+} pops_t;
+
+static inline void pops_init(pops_t *p, const grid_t *g, double *f, layout_state_t state)
+{
+    p->f = f;
+    p->n = g->ncells;
+    p->state = state;
+    for (int q = 0; q < LB_Q; q++) {
+        p->off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
+    }
+}
+
+static inline size_t pops_post_slot(const pops_t *p, int q, size_t x)
+{
+    switch (p->state) {
+    case LAYOUT_SWAPPED:
+        return (size_t)lb_opposite(q) * p->n + x;
+    case LAYOUT_PUSHED:
+        return (size_t)q * p->n + (size_t)((ptrdiff_t)x + p->off[q]);
+    case LAYOUT_PULL:
+    default:
+        return (size_t)q * p->n + x;
+    }
+}
+
+static inline size_t pops_in_slot(const pops_t *p, int q, size_t x)
+{
+    switch (p->state) {
+    case LAYOUT_SWAPPED:
+        return (size_t)lb_opposite(q) * p->n + (size_t)((ptrdiff_t)x - p->off[q]);
+    case LAYOUT_PUSHED:
+        return (size_t)q * p->n + x;
+    case LAYOUT_PULL:
+    default:
+        return (size_t)q * p->n + (size_t)((ptrdiff_t)x - p->off[q]);
+    }
+}
+
+static inline double pops_post(const pops_t *p, int q, size_t x) { return p->f[pops_post_slot(p, q, x)]; }
+
+/* Density and momentum of the post-collision populations of cell x. */
+static inline double pops_moments(const pops_t *p, size_t x, double j[3])
+{
+    double rho = 0.0;
+    j[0] = j[1] = j[2] = 0.0;
+    for (int q = 0; q < LB_Q; q++) {
+        const double v = pops_post(p, q, x);
+        rho += v;
+        j[0] += lb_c[q][0] * v;
+        j[1] += lb_c[q][1] * v;
+        j[2] += lb_c[q][2] * v;
+    }
+    return rho;
+}
+
+#endif
