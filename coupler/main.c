@@ -5,6 +5,7 @@
  *                 [--checkpoint-every T] [--restart CHECKPOINT]
  *   coupler check SCENE.yaml [--set KEY=VALUE]...
  *   coupler bench [--size N]... [--json]
+ *   coupler bench --coupled SCENE.yaml [--steps N] [--json]
  *   coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...
  *
  * Only this file decides exit codes: 0 success, 1 a failed run or invalid
@@ -40,6 +41,7 @@ static int usage(const char *msg)
                     "                [--checkpoint-every T] [--restart CHECKPOINT]\n"
                     "  coupler check SCENE.yaml [--set KEY=VALUE]...\n"
                     "  coupler bench [--size N]... [--json]\n"
+                    "  coupler bench --coupled SCENE.yaml [--steps N] [--json]\n"
                     "  coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...\n");
     return 2;
 }
@@ -209,10 +211,18 @@ int main(int argc, char **argv)
     }
     if (strcmp(cmd, "bench") == 0) {
         int sizes[MAX_SIZES], nsizes = 0, json = 0;
+        const char *coupled = NULL;
+        long csteps = 200;
         for (int i = 2; i < argc; i++) {
             long v;
             if (strcmp(argv[i], "--json") == 0) {
                 json = 1;
+            } else if (strcmp(argv[i], "--coupled") == 0 && i + 1 < argc) {
+                coupled = argv[++i];
+            } else if (strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
+                if (!parse_long("--steps", argv[++i], 1, 100000000, &csteps)) {
+                    return 2;
+                }
             } else if (strcmp(argv[i], "--size") == 0 && i + 1 < argc) {
                 if (!parse_long("--size", argv[++i], 8, 1024, &v)) {
                     return 2;
@@ -225,6 +235,11 @@ int main(int argc, char **argv)
                 fprintf(stderr, "coupler bench: unknown or incomplete option '%s'\n", argv[i]);
                 return usage(NULL);
             }
+        }
+        if (coupled != NULL) {
+            char lib_dir[4096];
+            fmu_lib_dir(lib_dir, sizeof lib_dir);
+            return bench_coupled(coupled, csteps, lib_dir, json);
         }
         return bench_main(sizes, nsizes, json);
     }

@@ -71,11 +71,10 @@ static void cross(const double a[3], const double b[3], double c[3])
     c[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-double spheres_ray_delta(const double x[3], int q, const double cen[3], double r, const grid_t *g,
-                         const int periodic[3])
+/* delta of the ray x + t c_q, t in (0, 1], against a sphere of radius r
+ * whose centre is at x - d; 0 if it starts inside or misses. */
+static double ray_delta(const double d[3], int q, double r)
 {
-    double d[3];
-    min_image(g, periodic, x, cen, d);
     const double cc = (double)(lb_c[q][0] * lb_c[q][0] + lb_c[q][1] * lb_c[q][1] + lb_c[q][2] * lb_c[q][2]);
     const double b = d[0] * lb_c[q][0] + d[1] * lb_c[q][1] + d[2] * lb_c[q][2];
     const double c = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - r * r;
@@ -86,6 +85,14 @@ double spheres_ray_delta(const double x[3], int q, const double cen[3], double r
     /* smaller root, written to avoid cancellation */
     const double t = c / (-b + sqrt(disc));
     return (b < 0.0 && t > 0.0 && t <= 1.0 + 1e-12) ? fmin(t, 1.0) : 0.0;
+}
+
+double spheres_ray_delta(const double x[3], int q, const double cen[3], double r, const grid_t *g,
+                         const int periodic[3])
+{
+    double d[3];
+    min_image(g, periodic, x, cen, d);
+    return ray_delta(d, q, r);
 }
 
 static void rotate(const double w[3], double t, const double v[3], double out[3])
@@ -316,15 +323,6 @@ static int nearest_sphere(const spheres_t *sp, const grid_t *g, const double x[3
 
 static status_t build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, const log_t *log);
 
-/* Solid cells hold a rest state: finite values for the kernel to chew on. */
-static void write_rest_state(const spheres_t *sp, const pops_t *f)
-{
-    for (size_t j = 0; j < sp->nsolid; j++) {
-        for (int q = 0; q < LB_Q; q++) {
-            f->f[pops_post_slot(f, q, sp->solid[j])] = lb_w[q];
-        }
-    }
-}
 
 status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_t *f, const log_t *log)
 {
@@ -338,15 +336,16 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         memset(sp->s[k].t, 0, sizeof sp->s[k].t);
         sp->s[k].zt = sp->s[k].zr = 0.0;
     }
-    /* no sphere moved: flags, solid cells and links stay; only the solid
-     * cells' rest state is written again (the kernel ran over them) */
+    /* no sphere moved: flags, solid cells and links stay. (Solid cells are
+     * never reset: the kernel runs over them, but every population a fluid
+     * cell receives from a solid one is written by a link, so what the solid
+     * cells hold never reaches the fluid.) */
     int moved = sp->first || sp->stale;
     for (int k = 0; k < sp->n && !moved; k++) {
         moved = memcmp(sp->s[k].c, sp->s[k].cmap, sizeof sp->s[k].c) != 0;
     }
     if (!moved) {
         sp->nfresh = 0;
-        write_rest_state(sp, f);
         for (int k = 0; k < sp->n; k++) {
             for (size_t j = 0; j < sp->lists[k].n; j++) {
                 sp->lists[k].l[j].fresh = 0;
@@ -448,7 +447,6 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     for (size_t j = 0; j < sp->nfresh; j++) {
         flags[sp->fresh[j]] = 0;
     }
-    write_rest_state(sp, f);
     sp->first = 0;
     const status_t st = build_links(sp, g, flags, log);
     /* a cell uncovered this step has no pre-collision populations (refill.c
@@ -508,7 +506,22 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
                         link_list_t *list)
 {
     const sphere_t *p = &sp->s[k];
-    const int nc = candidates(sp, g, k, cand);
+    int nc = candidates(sp, g, k, cand);
+    /* the other candidates, and their centres relative to c_k (minimum image) */
+    double rel[nc > 0 ? nc : 1][3];
+    int m_n = 0;
+    for (int c = 0; c < nc; c++) {
+        if (cand[c] != k) {
+            min_image(g, sp->periodic, p->c, sp->s[cand[c]].c, rel[m_n]);
+            cand[m_n++] = cand[c];
+        }
+    }
+    nc = m_n;
+    const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
+    ptrdiff_t off[LB_Q];
+    for (int q = 0; q < LB_Q; q++) {
+        off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
+    }
     list->n = 0;
     int lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
@@ -519,6 +532,12 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
     for (X[2] = lo[2]; X[2] <= hi[2]; X[2]++) {
         for (X[1] = lo[1]; X[1] <= hi[1]; X[1]++) {
             for (X[0] = lo[0]; X[0] <= hi[0]; X[0]++) {
+                /* the box is about c_k, so X - c_k is the minimum image */
+                const double dk[3] = {X[0] - p->c[0], X[1] - p->c[1], X[2] - p->c[2]};
+                const double dd = dk[0] * dk[0] + dk[1] * dk[1] + dk[2] * dk[2];
+                if (dd > reach2 || dd <= r2) {
+                    continue; /* no ray of length <= sqrt 2 from here reaches k; or inside k (solid) */
+                }
                 if (!wrap_cell(g, sp->periodic, X, Y)) {
                     continue;
                 }
@@ -526,34 +545,52 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
                 if (flags[i] != 0) {
                     continue; /* solid or ghost */
                 }
-                const double xf[3] = {Y[0], Y[1], Y[2]};
+                int inner = 1; /* all neighbours inside the grid: no wrap needed */
+                for (int a = 0; a < 3; a++) {
+                    inner = inner && Y[a] > 1 && Y[a] < g->n[a];
+                }
                 for (int q = 1; q < LB_Q; q++) {
                     int B[3], W[3];
-                    for (int a = 0; a < 3; a++) {
-                        B[a] = Y[a] + lb_c[q][a];
+                    size_t nb;
+                    if (inner) {
+                        nb = (size_t)((ptrdiff_t)i + off[q]);
+                    } else {
+                        for (int a = 0; a < 3; a++) {
+                            B[a] = Y[a] + lb_c[q][a];
+                        }
+                        if (!wrap_cell(g, sp->periodic, B, W)) {
+                            continue;
+                        }
+                        nb = grid_index(g, W[0], W[1], W[2]);
                     }
-                    if (!wrap_cell(g, sp->periodic, B, W) || !(flags[grid_index(g, W[0], W[1], W[2])] & FLAG_SOLID)) {
+                    if (!(flags[nb] & FLAG_SOLID)) {
                         continue;
                     }
-                    double delta = 2.0;
-                    int hit = -1;
-                    for (int c = 0; c < nc; c++) {
+                    /* Eq. 5: the nearest intersection over the candidates wins
+                     * (ties to the lower index); a link of k must hit k first */
+                    double delta = ray_delta(dk, q, p->r);
+                    int other = 0;
+                    for (int c = 0; c < nc && !other; c++) {
                         const sphere_t *s = &sp->s[cand[c]];
-                        const double t = spheres_ray_delta(xf, q, s->c, s->r, g, sp->periodic);
-                        if (t > 0.0 && t < delta) {
-                            delta = t;
-                            hit = cand[c];
+                        const double dm[3] = {dk[0] + rel[c][0], dk[1] + rel[c][1], dk[2] + rel[c][2]};
+                        const double rm = s->r + 1.4143;
+                        if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] > rm * rm) {
+                            continue;
                         }
+                        const double t = ray_delta(dm, q, s->r);
+                        other = t > 0.0 && (delta == 0.0 || t < delta || (t == delta && cand[c] < k));
                     }
-                    if (hit < 0) {
-                        /* x_b sits on a surface the ray only touches at t = 1 */
-                        double d[3];
-                        const double xb[3] = {B[0], B[1], B[2]};
-                        hit = nearest_sphere(sp, g, xb, d);
-                        delta = 1.0;
-                    }
-                    if (hit != k) {
+                    if (other) {
                         continue; /* another sphere's link */
+                    }
+                    if (delta == 0.0) {
+                        /* no ray hits: x_b sits on a surface the ray only touches at t = 1 */
+                        double d[3];
+                        const double xb[3] = {Y[0] + lb_c[q][0], Y[1] + lb_c[q][1], Y[2] + lb_c[q][2]};
+                        if (nearest_sphere(sp, g, xb, d) != k) {
+                            continue;
+                        }
+                        delta = 1.0;
                     }
                     if (!grow((void **)&list->l, &list->cap, list->n + 1, sizeof *list->l)) {
                         return 0;
@@ -568,10 +605,8 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
                     boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, l->a, l->b,
                                           &l->corr);
-                    double d[3];
-                    min_image(g, sp->periodic, xf, p->c, d);
                     for (int a = 0; a < 3; a++) {
-                        l->rw[a] = d[a] + delta * lb_c[q][a];
+                        l->rw[a] = dk[a] + delta * lb_c[q][a];
                     }
                 }
             }
@@ -635,12 +670,16 @@ void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *f, const pops_t 
 static void fill_sphere(spheres_t *sp, const pops_t *f, const pops_t *prev, const link_list_t *list, int galilean,
                         double inv_decay)
 {
-    for (size_t j = 0; j < list->n; j++) {
-        const sphere_link_t *l = &list->l[j];
+    size_t cell = (size_t)-1;
+    double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
+    for (size_t n = 0; n < list->n; n++) {
+        const sphere_link_t *l = &list->l[n];
         sphere_t *p = &sp->s[l->sphere];
         const int q = l->q, o = lb_opposite(q);
-        double j[3];
-        const double rho = pops_moments(f, l->xf, j);
+        if (l->xf != cell) { /* the links of a cell are consecutive (sphere_links) */
+            cell = l->xf;
+            rho = pops_moments(f, cell, j);
+        }
         double wr[3], uw[3];
         cross(p->w, l->rw, wr);
         for (int a = 0; a < 3; a++) {
