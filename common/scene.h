@@ -38,6 +38,8 @@ typedef enum { FORCE_MOMENTUM_EXCHANGE, FORCE_GALILEAN } force_method_t;
 /* Population layout (fluid/layout.h): one array updated in place (the AA
  * pattern) or two arrays, pull from one and write the other. */
 typedef enum { STREAMING_IN_PLACE, STREAMING_TWO_ARRAY } streaming_t;
+/* Storage of the populations: double, or float holding f - w_q. */
+typedef enum { PRECISION_DOUBLE, PRECISION_SINGLE } precision_t;
 
 typedef struct {
     double size[3]; /* m */
@@ -68,6 +70,7 @@ typedef struct {
     refill_t refill;
     force_method_t force_method;
     streaming_t streaming;
+    precision_t precision;
     int force_averaging;        /* average force over two steps: 1, 0, or -1 = not given (per body, common/coupling.h) */
 } scene_fluid_t;
 

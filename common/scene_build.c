@@ -228,6 +228,7 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
     f->refill = r->refill ? *r->refill : REFILL_EXTRAPOLATION;
     f->force_method = r->force ? *r->force : FORCE_GALILEAN;
     f->streaming = r->streaming ? *r->streaming : STREAMING_IN_PLACE;
+    f->precision = r->precision ? *r->precision : PRECISION_DOUBLE;
     f->force_averaging = r->force_averaging ? (*r->force_averaging ? 1 : 0) : -1; /* -1: per body (coupling.h) */
 
     bool nu_ok = scene_check_range(c, "fluid.viscosity", f->viscosity, 0, INFINITY, LO_OPEN);

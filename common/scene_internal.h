@@ -68,6 +68,7 @@ typedef struct {
     refill_t *refill;
     force_method_t *force;
     streaming_t *streaming;
+    precision_t *precision;
     int *force_averaging;
 } raw_fluid_t;
 

@@ -39,6 +39,7 @@ static const cyaml_strval_t FORCE_NAMES[] = {{"momentum_exchange", FORCE_MOMENTU
                                              {"galilean", FORCE_GALILEAN}};
 static const cyaml_strval_t STREAMING_NAMES[] = {{"in_place", STREAMING_IN_PLACE},
                                                   {"two_array", STREAMING_TWO_ARRAY}};
+static const cyaml_strval_t PRECISION_NAMES[] = {{"double", PRECISION_DOUBLE}, {"single", PRECISION_SINGLE}};
 static const cyaml_strval_t INITIAL_NAMES[] = {{"uniform", INITIAL_UNIFORM},
                                                 {"plane_channel", INITIAL_PLANE_CHANNEL}};
 static const cyaml_strval_t COUPLING_NAMES[] = {
@@ -106,6 +107,7 @@ static const cyaml_schema_field_t FLUID_FIELDS[] = {
     ENUM_FIELD("force", raw_fluid_t, force, FORCE_NAMES),
     ENUM_FIELD("force_averaging", raw_fluid_t, force_averaging, BOOL_NAMES),
     ENUM_FIELD("streaming", raw_fluid_t, streaming, STREAMING_NAMES),
+    ENUM_FIELD("precision", raw_fluid_t, precision, PRECISION_NAMES),
     CYAML_FIELD_END,
 };
 

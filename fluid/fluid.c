@@ -16,23 +16,24 @@
 #include <stdint.h>
 #include <string.h>
 
-/* One population array with a margin of POPS_MARGIN doubles (64 bytes)
- * before and after: the in-place push kernel touches one cell beyond each end
- * (kernel.c). Returns the allocation; the array starts POPS_MARGIN into it. */
-enum { POPS_MARGIN = 8 };
+/* One population array of values of esize bytes with a margin of
+ * POPS_MARGIN_BYTES before and after: the in-place push kernel touches one
+ * cell beyond each end (kernel.c). Returns the allocation; the array starts
+ * POPS_MARGIN_BYTES into it. */
+enum { POPS_MARGIN_BYTES = 64 };
 
-static double *alloc_populations(const grid_t *g)
+static void *alloc_populations(const grid_t *g, size_t esize)
 {
-    if (g->ncells > (SIZE_MAX - 1024) / (LB_Q * sizeof(double))) {
+    if (g->ncells > (SIZE_MAX - 1024) / (LB_Q * esize)) {
         return NULL; /* more bytes than an address space holds */
     }
-    size_t bytes = ((size_t)LB_Q * g->ncells + 2 * POPS_MARGIN) * sizeof(double);
+    const size_t body = (size_t)LB_Q * g->ncells * esize;
+    size_t bytes = body + 2 * POPS_MARGIN_BYTES;
     bytes = (bytes + 63) / 64 * 64;
-    double *m = aligned_alloc(64, bytes);
+    unsigned char *m = aligned_alloc(64, bytes);
     if (m != NULL) {
-        for (int k = 0; k < POPS_MARGIN; k++) {
-            m[k] = m[POPS_MARGIN + (size_t)LB_Q * g->ncells + (size_t)k] = 0.0;
-        }
+        memset(m, 0, POPS_MARGIN_BYTES);
+        memset(m + POPS_MARGIN_BYTES + body, 0, bytes - POPS_MARGIN_BYTES - body);
     }
     return m;
 }
@@ -50,14 +51,17 @@ static void init_uniform(fluid_t *fl, double rho, const double u[3])
     const size_t plane = (size_t)g->s[0] * (size_t)g->s[1];
     const int swapped = fl->layout == LAYOUT_SWAPPED; /* post_slot(q, x) is slot qbar of x */
     for (int k = 0; k < fluid_arrays(fl); k++) {
-        double *f = fl->f[k];
 #pragma omp parallel for schedule(static)
         for (int z = 0; z < g->s[2]; z++) {
             for (int q = 0; q < LB_Q; q++) {
-                double *p = f + (size_t)q * N + (size_t)z * plane;
+                const size_t o = (size_t)q * N + (size_t)z * plane;
                 const double v = feq[swapped ? lb_opposite(q) : q];
                 for (size_t i = 0; i < plane; i++) {
-                    p[i] = v;
+                    if (fl->single) {
+                        ((float *)fl->f[k])[o + i] = (float)(v - lb_w[q]); /* layout.h */
+                    } else {
+                        ((double *)fl->f[k])[o + i] = v;
+                    }
                 }
             }
         }
@@ -108,7 +112,9 @@ static void init_profile(fluid_t *fl, const scene_t *scene)
                     }
                     const double v = lb_feq(q, 1.0, ul[0], ul[1], ul[2]) - 3.0 * (tau - 1.0) * lb_w[q] * qs;
                     for (int k = 0; k < fluid_arrays(fl); k++) {
-                        fl->f[k][pops_post_slot(&p0, q, i)] = v;
+                        pops_t pk;
+                        pops_init(&pk, g, fl->f[k], fl->single, fl->layout);
+                        pops_write(&pk, q, pops_post_slot(&p0, q, i), v);
                     }
                 }
             }
@@ -137,6 +143,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     memcpy(fl->kp.force, fl->units.force_lat, sizeof fl->kp.force);
     fl->path = strdup(scene->path ? scene->path : "(scene)");
     fl->streaming = scene->fluid.streaming;
+    fl->single = scene->fluid.precision == PRECISION_SINGLE;
     fl->layout = fl->streaming == STREAMING_TWO_ARRAY ? LAYOUT_PULL : LAYOUT_SWAPPED;
     if (fl->streaming == STREAMING_IN_PLACE && scene->fluid.boundary_scheme == BOUNDARY_MULTIREFLECTION &&
         scene_total_spheres(scene) > 0 && fabs(1.0 - fl->units.omega_minus) < 0.05) { /* spheres.c SPHERES_MR_DECAY_MIN */
@@ -153,8 +160,8 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     }
     int have = 1;
     for (int k = 0; k < fluid_arrays(fl); k++) {
-        fl->mem[k] = alloc_populations(&fl->g);
-        fl->f[k] = fl->mem[k] != NULL ? fl->mem[k] + POPS_MARGIN : NULL;
+        fl->mem[k] = alloc_populations(&fl->g, fluid_value_bytes(fl));
+        fl->f[k] = fl->mem[k] != NULL ? (unsigned char *)fl->mem[k] + POPS_MARGIN_BYTES : NULL;
         have = have && fl->mem[k] != NULL;
     }
     fl->flags = calloc(fl->g.ncells, 1);
@@ -163,7 +170,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
                 "%s: out of memory for the populations and flags of %d x %d x %d cells (%.4g GB: %d array(s) of "
                 "%.4g GB and the flags)",
                 fl->path, fl->g.n[0], fl->g.n[1], fl->g.n[2], (double)fl->g.ncells * units_bytes_per_cell(scene) / 1e9,
-                fluid_arrays(fl), (double)fl->g.ncells * LB_Q * sizeof(double) / 1e9);
+                fluid_arrays(fl), (double)fl->g.ncells * LB_Q * fluid_value_bytes(fl) / 1e9);
         fluid_free(fl);
         return STATUS_ERROR;
     }
@@ -351,18 +358,26 @@ status_t fluid_step(fluid_t *fl)
         walls_fill(&fl->walls, &fl->g, &p);
         pops_t prev;
         if (two) {
-            pops_init(&prev, &fl->g, fl->f[1 - fl->cur], LAYOUT_PULL);
+            pops_init(&prev, &fl->g, fl->f[1 - fl->cur], fl->single, LAYOUT_PULL);
         }
         spheres_fill(&fl->spheres, &fl->g, &p, two ? &prev : NULL);
     } else {
         walls_fill(&fl->walls, &fl->g, &p);
     }
     if (two) {
-        kernel_stream_collide(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur]);
+        if (fl->single) {
+            kernel_stream_collide_f32(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur]);
+        } else {
+            kernel_stream_collide(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur]);
+        }
         fl->cur = 1 - fl->cur;
     } else {
         const int push = fl->layout == LAYOUT_SWAPPED;
-        kernel_in_place(&fl->g, &fl->kp, fl->f[0], push);
+        if (fl->single) {
+            kernel_in_place_f32(&fl->g, &fl->kp, fl->f[0], push);
+        } else {
+            kernel_in_place(&fl->g, &fl->kp, fl->f[0], push);
+        }
         fl->layout = push ? LAYOUT_PUSHED : LAYOUT_SWAPPED;
     }
     fl->step++;
@@ -372,7 +387,6 @@ status_t fluid_step(fluid_t *fl)
 long fluid_step_count(const fluid_t *fl) { return fl->step; }
 double fluid_time(const fluid_t *fl) { return fl->t0 + (double)fl->step * fl->units.dt; }
 const units_t *fluid_units(const fluid_t *fl) { return &fl->units; }
-double *fluid_populations(fluid_t *fl) { return fl->f[fl->cur]; }
 
 void fluid_cells(const fluid_t *fl, int n[3])
 {
@@ -383,7 +397,7 @@ void fluid_cells(const fluid_t *fl, int n[3])
 
 size_t fluid_memory_bytes(const fluid_t *fl)
 {
-    return (size_t)fluid_arrays(fl) * ((size_t)LB_Q * fl->g.ncells + 2 * POPS_MARGIN) * sizeof(double) +
+    return (size_t)fluid_arrays(fl) * ((size_t)LB_Q * fl->g.ncells * fluid_value_bytes(fl) + 2 * POPS_MARGIN_BYTES) +
            fl->g.ncells + fl->walls.nlinks * sizeof(ghost_link_t) + fl->walls.ncopies * sizeof(copy_link_t) +
            sizeof *fl;
 }
@@ -443,7 +457,7 @@ void fluid_set_equilibrium_lattice(fluid_t *fl, const double *rho, const double 
                 const double ux = u != NULL ? u[3 * o] : 0.0, uy = u != NULL ? u[3 * o + 1] : 0.0,
                              uz = u != NULL ? u[3 * o + 2] : 0.0;
                 for (int q = 0; q < LB_Q; q++) {
-                    pf.f[pops_post_slot(&pf, q, i)] = lb_feq(q, r, ux, uy, uz);
+                    pops_write(&pf, q, pops_post_slot(&pf, q, i), lb_feq(q, r, ux, uy, uz));
                 }
             }
         }

@@ -73,6 +73,5 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size);
 status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size);
 
 /* Low-level access for tests and benchmarks. */
-double *fluid_populations(fluid_t *fl); /* f[cur], SoA, see grid.h */
 
 #endif

@@ -23,8 +23,9 @@ struct fluid {
     grid_t g;
     units_t units;
     kernel_params_t kp;
-    double *f[2];         /* two_array: both; in_place: f[0] only (f[1] NULL) */
-    double *mem[2];       /* allocations: f[k] sits POPS_MARGIN doubles into mem[k] */
+    void *f[2];           /* two_array: both; in_place: f[0] only (f[1] NULL); double or float */
+    void *mem[2];         /* allocations: f[k] sits POPS_MARGIN_BYTES into mem[k] */
+    int single;           /* fluid.precision single: float storage of f - w_q (layout.h) */
     int cur;
     streaming_t streaming;
     layout_state_t layout; /* of f[cur] (layout.h) */
@@ -41,10 +42,11 @@ struct fluid {
 static inline pops_t fluid_pops(const fluid_t *fl)
 {
     pops_t p;
-    pops_init(&p, &fl->g, fl->f[fl->cur], fl->layout);
+    pops_init(&p, &fl->g, fl->f[fl->cur], fl->single, fl->layout);
     return p;
 }
 
 static inline int fluid_arrays(const fluid_t *fl) { return fl->streaming == STREAMING_TWO_ARRAY ? 2 : 1; }
+static inline size_t fluid_value_bytes(const fluid_t *fl) { return fl->single ? sizeof(float) : sizeof(double); }
 
 #endif

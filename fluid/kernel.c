@@ -31,19 +31,31 @@
  * time (the baseline compile, KERNEL_PRIMARY, also defines
  * kernel_omega_minus); without it (build/coupler, tests: -march=native) it
  * defines kernel_stream_collide and kernel_omega_minus itself. */
-#if defined(KERNEL_VARIANT)
+/* KERNEL_SINGLE (kernel_single.c includes this file): populations stored
+ * as float, shifted by their weight (f_q - w_q, Lehmann et al., Phys. Rev. E
+ * 106 (2022) 015308: the stored numbers are the small deviations from rest,
+ * so float keeps ~7 digits of them instead of ~7 of f); the arithmetic stays
+ * in double. Names get _f32. */
+#if defined(KERNEL_SINGLE)
+typedef float real_t;
+#define KERNEL_BASE_NAME(n) n##_f32
+#else
+typedef double real_t;
+#define KERNEL_BASE_NAME(n) n
+#endif
 #define KERNEL_CAT2(a, b) a##_##b
 #define KERNEL_CAT(a, b) KERNEL_CAT2(a, b)
-#define KERNEL_ENTRY KERNEL_CAT(kernel_stream_collide, KERNEL_VARIANT)
-#define KERNEL_IN_PLACE KERNEL_CAT(kernel_in_place, KERNEL_VARIANT)
-void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const double *restrict src, double *restrict dst);
-void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, double *f, int push);
+#if defined(KERNEL_VARIANT)
+#define KERNEL_ENTRY KERNEL_CAT(KERNEL_BASE_NAME(kernel_stream_collide), KERNEL_VARIANT)
+#define KERNEL_IN_PLACE KERNEL_CAT(KERNEL_BASE_NAME(kernel_in_place), KERNEL_VARIANT)
 #else
-#define KERNEL_ENTRY kernel_stream_collide
-#define KERNEL_IN_PLACE kernel_in_place
+#define KERNEL_ENTRY KERNEL_BASE_NAME(kernel_stream_collide)
+#define KERNEL_IN_PLACE KERNEL_BASE_NAME(kernel_in_place)
 #endif
+void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restrict src, real_t *restrict dst);
+void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int push);
 
-#if !defined(KERNEL_VARIANT) || defined(KERNEL_PRIMARY)
+#if (!defined(KERNEL_VARIANT) || defined(KERNEL_PRIMARY)) && !defined(KERNEL_SINGLE)
 double kernel_omega_minus(double omega_plus, double magic)
 {
     const double a = 1.0 / omega_plus - 0.5;
@@ -63,8 +75,8 @@ typedef struct {
     do {                                                                           \
         const double cu = (A) * ux + (B) * uy + (C) * uz;                          \
         const double cf = (A) * k_->fx + (B) * k_->fy + (C) * k_->fz;              \
-        const double fp = 0.5 * (f##k[x] + fb##k[x]);                              \
-        const double fm = 0.5 * (f##k[x] - fb##k[x]);                              \
+        const double fp = 0.5 * (V(f##k) + V(fb##k));                              \
+        const double fm = 0.5 * (V(f##k) - V(fb##k));                              \
         const double eqp = (W) * rho * (1.0 + 4.5 * cu * cu - usq15);              \
         const double eqm = (W) * rho * 3.0 * cu;                                   \
         const double np = fp - wp * (fp - eqp) + gp * (W) * (9.0 * cu * cf - uf3); \
@@ -73,10 +85,38 @@ typedef struct {
         out[k + 9][x] = np - nm;                                                   \
     } while (0)
 
-static void collide_block(const consts_t *restrict k_, const double *const in[LB_Q], int nb,
+/* V(name): the population of the block row name at x, as a double. */
+#if defined(KERNEL_SINGLE)
+#define V(name) ((double)(name)[x] + W_##name)
+#else
+#define V(name) ((name)[x])
+#endif
+#define W_f0 (1.0 / 3.0)
+#define W_f1 (1.0 / 18.0)
+#define W_f2 (1.0 / 18.0)
+#define W_f3 (1.0 / 18.0)
+#define W_fb1 (1.0 / 18.0)
+#define W_fb2 (1.0 / 18.0)
+#define W_fb3 (1.0 / 18.0)
+#define W_f4 (1.0 / 36.0)
+#define W_f5 (1.0 / 36.0)
+#define W_f6 (1.0 / 36.0)
+#define W_f7 (1.0 / 36.0)
+#define W_f8 (1.0 / 36.0)
+#define W_f9 (1.0 / 36.0)
+#define W_fb4 (1.0 / 36.0)
+#define W_fb5 (1.0 / 36.0)
+#define W_fb6 (1.0 / 36.0)
+#define W_fb7 (1.0 / 36.0)
+#define W_fb8 (1.0 / 36.0)
+#define W_fb9 (1.0 / 36.0)
+
+/* always inlined: its vector code must stay inside the entry points of this
+ * variant (kernel_dispatch.c; tests/python/test_fmu.py checks the FMU) */
+static inline __attribute__((always_inline)) void collide_block(const consts_t *restrict k_, const real_t *const in[LB_Q], int nb,
                           double (*restrict out)[KERNEL_BLOCK])
 {
-#define PTR(name, q) const double *restrict name = in[q]
+#define PTR(name, q) const real_t *restrict name = in[q]
     PTR(f0, 0);
     PTR(f1, 1);
     PTR(f2, 2);
@@ -100,11 +140,12 @@ static void collide_block(const consts_t *restrict k_, const double *const in[LB
     const double wp = k_->wp, wm = k_->wm, gp = k_->gp;
 #pragma omp simd
     for (int x = 0; x < nb; x++) {
-        const double d1 = f1[x] - fb1[x], d2 = f2[x] - fb2[x], d3 = f3[x] - fb3[x];
-        const double d4 = f4[x] - fb4[x], d5 = f5[x] - fb5[x], d6 = f6[x] - fb6[x];
-        const double d7 = f7[x] - fb7[x], d8 = f8[x] - fb8[x], d9 = f9[x] - fb9[x];
-        const double rho = f0[x] + f1[x] + fb1[x] + f2[x] + fb2[x] + f3[x] + fb3[x] + f4[x] + fb4[x] + f5[x] +
-                           fb5[x] + f6[x] + fb6[x] + f7[x] + fb7[x] + f8[x] + fb8[x] + f9[x] + fb9[x];
+        /* differences of opposite pairs need no shift (equal weights) */
+        const double d1 = (double)f1[x] - fb1[x], d2 = (double)f2[x] - fb2[x], d3 = (double)f3[x] - fb3[x];
+        const double d4 = (double)f4[x] - fb4[x], d5 = (double)f5[x] - fb5[x], d6 = (double)f6[x] - fb6[x];
+        const double d7 = (double)f7[x] - fb7[x], d8 = (double)f8[x] - fb8[x], d9 = (double)f9[x] - fb9[x];
+        const double rho = V(f0) + V(f1) + V(fb1) + V(f2) + V(fb2) + V(f3) + V(fb3) + V(f4) + V(fb4) + V(f5) +
+                           V(fb5) + V(f6) + V(fb6) + V(f7) + V(fb7) + V(f8) + V(fb8) + V(f9) + V(fb9);
         const double jx = d1 + d4 + d5 + d6 + d7;
         const double jy = d2 + d4 - d5 + d8 + d9;
         const double jz = d3 + d6 - d7 + d8 - d9;
@@ -115,7 +156,7 @@ static void collide_block(const consts_t *restrict k_, const double *const in[LB
         const double usq15 = 1.5 * (ux * ux + uy * uy + uz * uz);
         const double uf3 = 3.0 * (ux * k_->fx + uy * k_->fy + uz * k_->fz);
         const double eq0 = (1.0 / 3.0) * rho * (1.0 - usq15);
-        out[0][x] = f0[x] - wp * (f0[x] - eq0) - gp * (1.0 / 3.0) * uf3;
+        out[0][x] = V(f0) - wp * (V(f0) - eq0) - gp * (1.0 / 3.0) * uf3;
         PAIR(1, 1, 0, 0, 1.0 / 18.0);
         PAIR(2, 0, 1, 0, 1.0 / 18.0);
         PAIR(3, 0, 0, 1, 1.0 / 18.0);
@@ -128,10 +169,12 @@ static void collide_block(const consts_t *restrict k_, const double *const in[LB
     }
 }
 #undef PAIR
+#undef V
 
+#if !defined(KERNEL_SINGLE)
 /* Copies the block buffer to dst. With SSE2/AVX the stores are non-temporal:
  * dst rows are 64-byte aligned and nb is a multiple of GRID_ALIGN (grid.h). */
-static void store_block_nt(double *restrict dst, size_t ncells, size_t base, int nb,
+static inline __attribute__((always_inline)) void store_block_nt(double *restrict dst, size_t ncells, size_t base, int nb,
                            double (*restrict buf)[KERNEL_BLOCK])
 {
     for (int q = 0; q < LB_Q; q++) {
@@ -152,21 +195,31 @@ static void store_block_nt(double *restrict dst, size_t ncells, size_t base, int
     }
 }
 
-/* Copies the block buffer to the in-place array: ordinary stores, the lines
- * were just read and are in the cache; for the push kernel the rows are
- * shifted by c_q and so not aligned. */
-static void store_block(double *const out[LB_Q], int nb, double (*restrict buf)[KERNEL_BLOCK])
+#endif
+
+/* Copies the block buffer to the rows out[q]: ordinary stores (in place, the
+ * lines were just read and are in the cache; for the push kernel the rows
+ * are shifted by c_q and so not aligned). Single precision: f - w_q. */
+static inline __attribute__((always_inline)) void store_block(real_t *const out[LB_Q], int nb, double (*restrict buf)[KERNEL_BLOCK])
 {
     for (int q = 0; q < LB_Q; q++) {
-        double *restrict d = out[q];
+        real_t *restrict d = out[q];
+#if defined(KERNEL_SINGLE)
+        const double w = lb_w[q];
+#pragma omp simd
+        for (int x = 0; x < nb; x++) {
+            d[x] = (float)(buf[q][x] - w);
+        }
+#else
 #pragma omp simd
         for (int x = 0; x < nb; x++) {
             d[x] = buf[q][x];
         }
+#endif
     }
 }
 
-static void kernel_consts(const kernel_params_t *p, consts_t *k)
+static inline __attribute__((always_inline)) void kernel_consts(const kernel_params_t *p, consts_t *k)
 {
     k->wp = p->omega_plus;
     k->wm = p->omega_minus;
@@ -181,7 +234,7 @@ static void kernel_consts(const kernel_params_t *p, consts_t *k)
     }
 }
 
-void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const double *restrict src, double *restrict dst)
+void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restrict src, real_t *restrict dst)
 {
     consts_t k;
     kernel_consts(p, &k);
@@ -201,16 +254,24 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const double *restr
                 for (int x0 = 0; x0 < sx; x0 += KERNEL_BLOCK) {
                     const int nb = sx - x0 < KERNEL_BLOCK ? sx - x0 : KERNEL_BLOCK;
                     const size_t base = row + (size_t)x0;
-                    const double *in[LB_Q];
+                    const real_t *in[LB_Q];
                     for (int q = 0; q < LB_Q; q++) {
                         in[q] = src + (size_t)q * ncells + base - off[q];
                     }
                     collide_block(&k, in, nb, buf);
+#if defined(KERNEL_SINGLE)
+                    real_t *out[LB_Q];
+                    for (int q = 0; q < LB_Q; q++) {
+                        out[q] = dst + (size_t)q * ncells + base;
+                    }
+                    store_block(out, nb, buf);
+#else
                     store_block_nt(dst, ncells, base, nb, buf);
+#endif
                 }
             }
         }
-#if defined(__SSE2__)
+#if defined(__SSE2__) && !defined(KERNEL_SINGLE)
         _mm_sfence(); /* non-temporal stores are weakly ordered */
 #endif
     }
@@ -221,7 +282,7 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const double *restr
  * slot q of x + c_q out). The ghost columns of interior rows are computed
  * too; the push kernel then reads and writes one cell beyond the first and
  * the last interior row, inside the array's margin (fluid.c). */
-void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, double *f, int push)
+void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int push)
 {
     consts_t k;
     kernel_consts(p, &k);
@@ -241,8 +302,8 @@ void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, double *f, int p
                 for (int x0 = 0; x0 < sx; x0 += KERNEL_BLOCK) {
                     const int nb = sx - x0 < KERNEL_BLOCK ? sx - x0 : KERNEL_BLOCK;
                     const size_t base = row + (size_t)x0;
-                    const double *in[LB_Q];
-                    double *out[LB_Q];
+                    const real_t *in[LB_Q];
+                    real_t *out[LB_Q];
                     for (int q = 0; q < LB_Q; q++) {
                         const int o = lb_opposite(q);
                         in[q] = f + (size_t)(push ? o : q) * ncells + base - off[q];

@@ -29,5 +29,10 @@ void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const doub
  * (from the PUSHED state to SWAPPED), push = 1 the push kernel (SWAPPED to
  * PUSHED). f needs one cell of margin before and after its ncells * 19 values. */
 void kernel_in_place(const grid_t *g, const kernel_params_t *p, double *f, int push);
+/* The same with single-precision storage (fluid.precision: single): every
+ * value is f_q - w_q as a float, the arithmetic is in double (kernel.c). */
+void kernel_stream_collide_f32(const grid_t *g, const kernel_params_t *p, const float *restrict src,
+                               float *restrict dst);
+void kernel_in_place_f32(const grid_t *g, const kernel_params_t *p, float *f, int push);
 
 #endif

@@ -16,6 +16,12 @@ void kernel_stream_collide_v3(const grid_t *g, const kernel_params_t *p, const d
 
 void kernel_in_place_base(const grid_t *g, const kernel_params_t *p, double *f, int push);
 void kernel_in_place_v3(const grid_t *g, const kernel_params_t *p, double *f, int push);
+void kernel_stream_collide_f32_base(const grid_t *g, const kernel_params_t *p, const float *restrict src,
+                                    float *restrict dst);
+void kernel_stream_collide_f32_v3(const grid_t *g, const kernel_params_t *p, const float *restrict src,
+                                  float *restrict dst);
+void kernel_in_place_f32_base(const grid_t *g, const kernel_params_t *p, float *f, int push);
+void kernel_in_place_f32_v3(const grid_t *g, const kernel_params_t *p, float *f, int push);
 
 static int use_v3(void)
 {
@@ -48,5 +54,24 @@ void kernel_in_place(const grid_t *g, const kernel_params_t *p, double *f, int p
         kernel_in_place_v3(g, p, f, push);
     } else {
         kernel_in_place_base(g, p, f, push);
+    }
+}
+
+void kernel_stream_collide_f32(const grid_t *g, const kernel_params_t *p, const float *restrict src,
+                               float *restrict dst)
+{
+    if (use_v3()) {
+        kernel_stream_collide_f32_v3(g, p, src, dst);
+    } else {
+        kernel_stream_collide_f32_base(g, p, src, dst);
+    }
+}
+
+void kernel_in_place_f32(const grid_t *g, const kernel_params_t *p, float *f, int push)
+{
+    if (use_v3()) {
+        kernel_in_place_f32_v3(g, p, f, push);
+    } else {
+        kernel_in_place_f32_base(g, p, f, push);
     }
 }

@@ -40,16 +40,21 @@
 
 typedef enum { LAYOUT_PULL, LAYOUT_SWAPPED, LAYOUT_PUSHED } layout_state_t;
 
+/* Storage: double, or (fluid.precision: single) float holding f_q - w_q
+ * (kernel.c); pops_read/pops_write convert, so that everything outside the
+ * kernels computes in double either way. */
 typedef struct {
-    double *f;
+    double *f;            /* double storage, or NULL */
+    float *h;             /* single storage (f - w_q), or NULL */
     size_t n;             /* cells per population (grid.h ncells) */
     ptrdiff_t off[LB_Q];  /* offset of the neighbour at +c_q */
     layout_state_t state;
 } pops_t;
 
-static inline void pops_init(pops_t *p, const grid_t *g, double *f, layout_state_t state)
+static inline void pops_init(pops_t *p, const grid_t *g, void *data, int single, layout_state_t state)
 {
-    p->f = f;
+    p->f = single ? NULL : (double *)data;
+    p->h = single ? (float *)data : NULL;
     p->n = g->ncells;
     p->state = state;
     for (int q = 0; q < LB_Q; q++) {
@@ -83,7 +88,32 @@ static inline size_t pops_in_slot(const pops_t *p, int q, size_t x)
     }
 }
 
-static inline double pops_post(const pops_t *p, int q, size_t x) { return p->f[pops_post_slot(p, q, x)]; }
+/* The value of a slot of direction q (or of its opposite: same weight). */
+static inline double pops_read(const pops_t *p, int q, size_t slot)
+{
+    return p->h != NULL ? (double)p->h[slot] + lb_w[q] : p->f[slot];
+}
+
+static inline void pops_write(const pops_t *p, int q, size_t slot, double v)
+{
+    if (p->h != NULL) {
+        p->h[slot] = (float)(v - lb_w[q]);
+    } else {
+        p->f[slot] = v;
+    }
+}
+
+/* Copies a slot to another of the same weight, exactly. */
+static inline void pops_copy(const pops_t *p, size_t dst, size_t src)
+{
+    if (p->h != NULL) {
+        p->h[dst] = p->h[src];
+    } else {
+        p->f[dst] = p->f[src];
+    }
+}
+
+static inline double pops_post(const pops_t *p, int q, size_t x) { return pops_read(p, q, pops_post_slot(p, q, x)); }
 
 /* Density and momentum of the post-collision populations of cell x. */
 static inline double pops_moments(const pops_t *p, size_t x, double j[3])

@@ -78,7 +78,7 @@ void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int
     mom[0] = mom[1] = mom[2] = 0.0;
     for (int q = 0; q < LB_Q; q++) {
         const double v = lb_feq(q, rho, us[0], us[1], us[2]) + neq[q];
-        p->f[pops_post_slot(p, q, self)] = v;
+        pops_write(p, q, pops_post_slot(p, q, self), v);
         for (int a = 0; a < 3; a++) {
             mom[a] += lb_c[q][a] * v;
         }

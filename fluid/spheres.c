@@ -712,7 +712,7 @@ static void fill_sphere(spheres_t *sp, const pops_t *f, const pops_t *prev, cons
                 for (int a = 0; a < 3; a++) {
                     cu0 += lb_c[q][a] * (j[a] - sp->body_force[a]);
                 }
-                nm = 0.5 * (prev->f[pops_in_slot(prev, q, l->xf)] - prev->f[pops_in_slot(prev, o, l->xf)]) -
+                nm = 0.5 * (pops_read(prev, q, pops_in_slot(prev, q, l->xf)) - pops_read(prev, o, pops_in_slot(prev, o, l->xf))) -
                      3.0 * lb_w[q] * cu0;
             } else {
                 const double cj = lb_c[q][0] * j[0] + lb_c[q][1] * j[1] + lb_c[q][2] * j[2];
@@ -720,7 +720,7 @@ static void fill_sphere(spheres_t *sp, const pops_t *f, const pops_t *prev, cons
             }
             f_new += l->corr * nm;
         }
-        f->f[pops_in_slot(f, o, l->xf)] = f_new;
+        pops_write(f, o, pops_in_slot(f, o, l->xf), f_new);
         /* Eq. 7 (Ladd), populations centred on the rest weight so that hidden
          * faces of touching spheres carry no spurious pressure; Wen et al.,
          * Phys. Rev. E 89 (2014) 023305, add -(f_old - f_new) u_w. */

@@ -27,11 +27,12 @@ typedef struct {
     int64_t covered, uncovered;
     int32_t first;
     int16_t streaming, layout;
+    int32_t single, pad;
 } state_header_t;
 
 size_t fluid_state_size(const fluid_t *fl)
 {
-    return sizeof(state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.ncells * sizeof(double) + fl->g.ncells +
+    return sizeof(state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.ncells * fluid_value_bytes(fl) + fl->g.ncells +
            (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t);
 }
 
@@ -56,10 +57,11 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
     h.first = fl->spheres.first;
     h.streaming = (int16_t)fl->streaming;
     h.layout = (int16_t)fl->layout;
+    h.single = fl->single;
     unsigned char *p = buf;
     memcpy(p, &h, sizeof h);
     p += sizeof h;
-    const size_t fbytes = (size_t)LB_Q * fl->g.ncells * sizeof(double);
+    const size_t fbytes = (size_t)LB_Q * fl->g.ncells * fluid_value_bytes(fl);
     for (int k = 0; k < fluid_arrays(fl); k++) {
         memcpy(p, fl->f[k == 0 ? fl->cur : 1 - fl->cur], fbytes);
         p += fbytes;
@@ -84,17 +86,18 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     }
     memcpy(&h, buf, sizeof h);
     if (h.magic != STATE_MAGIC || h.n[0] != fl->g.n[0] || h.n[1] != fl->g.n[1] || h.n[2] != fl->g.n[2] ||
-        h.nspheres != fl->spheres.n || h.ncells != fl->g.ncells || h.streaming != (int16_t)fl->streaming) {
+        h.nspheres != fl->spheres.n || h.ncells != fl->g.ncells || h.streaming != (int16_t)fl->streaming ||
+        h.single != fl->single) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid",
-                       "the state does not belong to this scene (grid %d x %d x %d with %d spheres and fluid.streaming "
-                       "%s expected)",
+                       "the state does not belong to this scene (grid %d x %d x %d with %d spheres, fluid.streaming "
+                       "%s and fluid.precision %s expected)",
                        fl->g.n[0], fl->g.n[1], fl->g.n[2], fl->spheres.n,
-                       fl->streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place");
+                       fl->streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place", fl->single ? "single" : "double");
     }
     if (h.layout != LAYOUT_PULL && h.layout != LAYOUT_SWAPPED && h.layout != LAYOUT_PUSHED) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "the state names layout state %d (0 to 2 expected)", h.layout);
     }
-    const size_t fbytes = (size_t)LB_Q * fl->g.ncells * sizeof(double);
+    const size_t fbytes = (size_t)LB_Q * fl->g.ncells * fluid_value_bytes(fl);
     const size_t need = sizeof h + (size_t)fluid_arrays(fl) * fbytes + fl->g.ncells + (size_t)h.nspheres * sizeof(sphere_t) +
                         (size_t)h.nsolid * sizeof(size_t);
     if (size < need) {

@@ -47,7 +47,8 @@ status_t units_derive(const scene_t *s, const log_t *log, units_t *u)
 double units_bytes_per_cell(const scene_t *s)
 {
     const double arrays = s->fluid.streaming == STREAMING_TWO_ARRAY ? 2.0 : 1.0;
-    return arrays * LB_Q * sizeof(double) + 1.0;
+    const double bytes = s->fluid.precision == PRECISION_SINGLE ? sizeof(float) : sizeof(double);
+    return arrays * LB_Q * bytes + 1.0;
 }
 
 /* Smallest extent between two non-periodic faces across an axis other than

@@ -47,7 +47,7 @@ void units_assess(const scene_t *s, const units_t *u, const log_t *log, units_as
 
 /* Bytes per cell of the fluid state (two population arrays and a flag). */
 /* Bytes per allocated cell: the population arrays of the scene's streaming
- * layout (one in place, two otherwise) and the cell flag. */
+ * layout (one in place, two otherwise) in its precision, and the cell flag. */
 double units_bytes_per_cell(const scene_t *s);
 
 #endif

@@ -263,9 +263,9 @@ static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[
                     const int q = qs[k];
                     const size_t slot = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(q) : q) * p->n;
                     if (push) {
-                        p->f[slot + wi] = p->f[slot + gi];
+                        pops_copy(p, slot + wi, slot + gi);
                     } else {
-                        p->f[slot + gi] = p->f[slot + wi];
+                        pops_copy(p, slot + gi, slot + wi);
                     }
                 }
             }
@@ -296,14 +296,14 @@ static void periodic_fill(const walls_t *w, const grid_t *g, const pops_t *p)
 void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
 {
     periodic_fill(w, g, p);
-    double *f = p->f;
     const ptrdiff_t nc = (ptrdiff_t)w->ncopies, n = (ptrdiff_t)w->nlinks;
     const copy_link_t *restrict cp = w->copies;
 #pragma omp parallel
     {
 #pragma omp for schedule(static) nowait
     for (ptrdiff_t i = 0; i < nc; i++) {
-        f[pops_in_slot(p, cp[i].q, cp[i].cell)] = f[pops_post_slot(p, cp[i].sq, cp[i].src)];
+        /* the mirrored direction has the same weight */
+        pops_copy(p, pops_in_slot(p, cp[i].q, cp[i].cell), pops_post_slot(p, cp[i].sq, cp[i].src));
     }
 #pragma omp for schedule(static)
     for (ptrdiff_t i = 0; i < n; i++) {
@@ -320,7 +320,7 @@ void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
                 moments(p, l->cell, &rho, u);
                 v += l->coef * rho;
             }
-            f[dst] = v;
+            pops_write(p, l->q, dst, v);
             break;
         }
         case LINK_ANTI: {
@@ -332,7 +332,7 @@ void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
             }
             const double cu = lb_c[l->q][0] * uw[0] + lb_c[l->q][1] * uw[1] + lb_c[l->q][2] * uw[2];
             const double uu = uw[0] * uw[0] + uw[1] * uw[1] + uw[2] * uw[2];
-            f[dst] = -bounced + 2.0 * lb_w[l->q] * l->coef * (1.0 + 4.5 * cu * cu - 1.5 * uu);
+            pops_write(p, l->q, dst, -bounced + 2.0 * lb_w[l->q] * l->coef * (1.0 + 4.5 * cu * cu - 1.5 * uu));
             break;
         }
         }

@@ -66,13 +66,15 @@ static void reference_step(const grid_t *g, const kernel_params_t *p, const doub
 
 /* Random populations, nsteps steps of the component (boundary stage and
  * kernel, in the scene's streaming layout) against nsteps reference steps. */
-static void compare(collision_t collision, double tau, int nx, int ny, int nz, streaming_t streaming, int nsteps)
+static void compare(collision_t collision, double tau, int nx, int ny, int nz, streaming_t streaming, int nsteps,
+                    precision_t precision)
 {
     scene_t s = test_box(nx, ny, nz, tau, collision);
     s.fluid.body_force[0] = 1.3e-5;
     s.fluid.body_force[1] = -0.7e-5;
     s.fluid.body_force[2] = 2.1e-5;
     s.fluid.streaming = streaming;
+    s.fluid.precision = precision;
     fluid_t *fl = test_fluid(&s);
     const grid_t *g = &fl->g;
     const size_t bytes = (size_t)LB_Q * g->ncells * sizeof(double);
@@ -88,7 +90,8 @@ static void compare(collision_t collision, double tau, int nx, int ny, int nz, s
                 for (int q = 0; q < LB_Q; q++) {
                     const size_t i = grid_index(g, x, y, z);
                     const double v = lb_w[q] * (1.0 + 0.1 * ((double)rand() / RAND_MAX - 0.5));
-                    p0.f[pops_post_slot(&p0, q, i)] = src[(size_t)q * g->ncells + i] = v;
+                    pops_write(&p0, q, pops_post_slot(&p0, q, i), v);
+                    src[(size_t)q * g->ncells + i] = pops_post(&p0, q, i); /* as stored */
                 }
             }
         }
@@ -110,20 +113,45 @@ static void compare(collision_t collision, double tau, int nx, int ny, int nz, s
             }
         }
     }
-    /* populations are O(0.1): round-off of a few ulp per step */
-    CU_ASSERT(maxdiff < 1e-15 * nsteps);
+    /* double: populations are O(0.1), round-off of a few ulp per step.
+     * single: each stored value is f - w_q, about 0.05 w_q here, rounded to
+     * float (2^-24 relative): ~1e-10 absolute per step; unshifted it would be
+     * ~1e-8 (the test of the shift) */
+    if (precision == PRECISION_SINGLE) {
+        CU_ASSERT(maxdiff < 1e-9 * nsteps);
+        CU_ASSERT(maxdiff > 1e-13); /* it is float storage */
+    } else {
+        CU_ASSERT(maxdiff < 1e-15 * nsteps);
+    }
     CU_ASSERT(maxdiff >= 0.0);
     free(src);
     free(ref);
     fluid_free(fl);
 }
 
-static void test_fused_equals_reference_trt(void) { compare(COLLISION_TRT, 0.73, 70, 5, 4, STREAMING_TWO_ARRAY, 1); }
-static void test_fused_equals_reference_bgk(void) { compare(COLLISION_BGK, 1.7, 13, 6, 7, STREAMING_TWO_ARRAY, 1); }
+static void test_fused_equals_reference_trt(void)
+{
+    compare(COLLISION_TRT, 0.73, 70, 5, 4, STREAMING_TWO_ARRAY, 1, PRECISION_DOUBLE);
+}
+static void test_fused_equals_reference_bgk(void)
+{
+    compare(COLLISION_BGK, 1.7, 13, 6, 7, STREAMING_TWO_ARRAY, 1, PRECISION_DOUBLE);
+}
 /* in place: three steps, so that both kernels (push, local, push) and both
  * boundary states (SWAPPED, PUSHED) are exercised */
-static void test_in_place_equals_reference_trt(void) { compare(COLLISION_TRT, 0.73, 70, 5, 4, STREAMING_IN_PLACE, 3); }
-static void test_in_place_equals_reference_bgk(void) { compare(COLLISION_BGK, 1.7, 13, 6, 7, STREAMING_IN_PLACE, 3); }
+static void test_in_place_equals_reference_trt(void)
+{
+    compare(COLLISION_TRT, 0.73, 70, 5, 4, STREAMING_IN_PLACE, 3, PRECISION_DOUBLE);
+}
+static void test_in_place_equals_reference_bgk(void)
+{
+    compare(COLLISION_BGK, 1.7, 13, 6, 7, STREAMING_IN_PLACE, 3, PRECISION_DOUBLE);
+}
+static void test_single_equals_reference(void)
+{
+    compare(COLLISION_TRT, 0.73, 70, 5, 4, STREAMING_IN_PLACE, 3, PRECISION_SINGLE);
+    compare(COLLISION_BGK, 1.7, 13, 6, 7, STREAMING_TWO_ARRAY, 2, PRECISION_SINGLE);
+}
 
 /* Lambda = (1/w+ - 1/2)(1/w- - 1/2) must come out as the requested magic
  * parameter (Ginzburg, Verhaeghe & d'Humieres 2008). */
@@ -145,5 +173,7 @@ void kernel_register_tests(void)
     CU_add_test(s, "fused BGK kernel equals the reference kernel", test_fused_equals_reference_bgk);
     CU_add_test(s, "in-place (AA) TRT kernel equals the reference kernel", test_in_place_equals_reference_trt);
     CU_add_test(s, "in-place (AA) BGK kernel equals the reference kernel", test_in_place_equals_reference_bgk);
+    CU_add_test(s, "single precision (f - w stored as float) equals the reference kernel to 1e-9",
+                test_single_equals_reference);
     CU_add_test(s, "TRT magic parameter", test_magic_parameter);
 }

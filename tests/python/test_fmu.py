@@ -119,8 +119,10 @@ def test_fmu_binaries_run_on_any_x86_64(fmus, tmp_path):
             elif "%ymm" in line or "%zmm" in line:
                 with_avx.add(fn)
         if name == "fluid":
-            assert with_avx and all(f.startswith("kernel_stream_collide_v3") for f in with_avx), with_avx
-            assert "<kernel_stream_collide_base" in asm
+            # the AVX2 variants of the kernels: two layouts, two precisions
+            assert with_avx and all(f.startswith("kernel_") and "_v3" in f for f in with_avx), with_avx
+            for k in ("kernel_stream_collide", "kernel_in_place", "kernel_stream_collide_f32", "kernel_in_place_f32"):
+                assert f"<{k}_base" in asm and f"<{k}_v3" in asm, k
         else:
             assert not with_avx, with_avx
 
