@@ -9,7 +9,8 @@
  * least 19 loads + 19 stores of a double per cell, 304 bytes, in either
  * layout (two arrays: the stores are non-temporal, no read-for-ownership;
  * in place: the stores go to lines just read), so the bandwidth limit is
- * B / 304 cell updates per second; the ratio printed is MLUPS / that limit.
+ * B / 304 cell updates per second (B / 152 in single precision); the ratio
+ * printed is MLUPS / that limit.
  * Memory: bytes of the fluid component per interior cell, everything
  * included (fluid_memory_bytes). */
 #include "bench.h"
@@ -29,7 +30,6 @@
 #include <immintrin.h>
 #endif
 
-#define BYTES_PER_UPDATE (2.0 * LB_Q * sizeof(double))
 
 static double stream_bandwidth(int threads)
 {
@@ -83,7 +83,7 @@ static double stream_bandwidth(int threads)
     return best;
 }
 
-static double fluid_mlups(int size, int threads, streaming_t streaming, double *bytes_per_cell)
+static double fluid_mlups(int size, int threads, streaming_t streaming, precision_t precision, double *bytes_per_cell)
 {
     omp_set_num_threads(threads);
     scene_t s;
@@ -102,6 +102,7 @@ static double fluid_mlups(int size, int threads, streaming_t streaming, double *
     s.fluid.initial_velocity[0] = 0.01;
     s.fluid.body_force[2] = 1e-7;
     s.fluid.streaming = streaming;
+    s.fluid.precision = precision;
     log_t log = {log_stderr, NULL};
     fluid_t *fl = NULL;
     if (fluid_create(&s, &log, &fl) != STATUS_OK) {
@@ -154,23 +155,29 @@ int bench_main(const int *sizes, int nsizes, int json)
     }
     static const streaming_t layouts[] = {STREAMING_IN_PLACE, STREAMING_TWO_ARRAY};
     static const char *const names[] = {"in_place", "two_array"};
+    static const precision_t precisions[] = {PRECISION_DOUBLE, PRECISION_SINGLE};
+    static const char *const pnames[] = {"double", "single"};
     for (int k = 0; k < nsizes; k++) {
-        for (int l = 0; l < 2; l++) {
-            for (int t = 0; t < ntc; t++) {
-                double bpc = 0.0;
-                const double m = fluid_mlups(sizes[k], tcounts[t], layouts[l], &bpc);
-                const double limit = bw[t] * 1e9 / BYTES_PER_UPDATE / 1e6;
-                const double ratio = limit > 0.0 ? m / limit : 0.0;
-                if (json) {
-                    printf("{\"size\": %d, \"threads\": %d, \"precision\": \"double\", \"streaming\": \"%s\", "
-                           "\"mlups\": %.3f, \"bandwidth_gbs\": %.3f, \"limit_mlups\": %.3f, \"ratio\": %.4f, "
-                           "\"bytes_per_cell\": %.2f}\n",
-                           sizes[k], tcounts[t], names[l], m, bw[t], limit, ratio, bpc);
-                } else {
-                    printf("%6d %7d %9s %9s %8.2f %10.2f %12.2f %7.3f %10.1f\n", sizes[k], tcounts[t], "double",
-                           names[l], m, bw[t], limit, ratio, bpc);
+        for (int pr = 0; pr < 2; pr++) {
+            for (int l = 0; l < 2; l++) {
+                for (int t = 0; t < ntc; t++) {
+                    double bpc = 0.0;
+                    const double m = fluid_mlups(sizes[k], tcounts[t], layouts[l], precisions[pr], &bpc);
+                    /* 19 loads + 19 stores of a value per cell update */
+                    const double update = 2.0 * LB_Q * (pr == 0 ? sizeof(double) : sizeof(float));
+                    const double limit = bw[t] * 1e9 / update / 1e6;
+                    const double ratio = limit > 0.0 ? m / limit : 0.0;
+                    if (json) {
+                        printf("{\"size\": %d, \"threads\": %d, \"precision\": \"%s\", \"streaming\": \"%s\", "
+                               "\"mlups\": %.3f, \"bandwidth_gbs\": %.3f, \"limit_mlups\": %.3f, \"ratio\": %.4f, "
+                               "\"bytes_per_cell\": %.2f}\n",
+                               sizes[k], tcounts[t], pnames[pr], names[l], m, bw[t], limit, ratio, bpc);
+                    } else {
+                        printf("%6d %7d %9s %9s %8.2f %10.2f %12.2f %7.3f %10.1f\n", sizes[k], tcounts[t],
+                               pnames[pr], names[l], m, bw[t], limit, ratio, bpc);
+                    }
+                    fflush(stdout);
                 }
-                fflush(stdout);
             }
         }
     }

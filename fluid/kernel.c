@@ -24,6 +24,7 @@
 #endif
 
 #define KERNEL_BLOCK 64
+#define KERNEL_ROW 1024 /* in place: cells per call of collide_block (no buffer) */
 
 /* KERNEL_VARIANT (the FMU build, Makefile): this file is compiled once for
  * the x86-64 baseline and once for x86-64-v3 (AVX2, FMA) under the names
@@ -74,15 +75,15 @@ typedef struct {
 #define PAIR(k, A, B, C, W)                                                        \
     do {                                                                           \
         const double cu = (A) * ux + (B) * uy + (C) * uz;                          \
-        const double cf = (A) * k_->fx + (B) * k_->fy + (C) * k_->fz;              \
+        const double cf = (A) * fx + (B) * fy + (C) * fz;                          \
         const double fp = 0.5 * (V(f##k) + V(fb##k));                              \
         const double fm = 0.5 * (V(f##k) - V(fb##k));                              \
         const double eqp = (W) * rho * (1.0 + 4.5 * cu * cu - usq15);              \
         const double eqm = (W) * rho * 3.0 * cu;                                   \
         const double np = fp - wp * (fp - eqp) + gp * (W) * (9.0 * cu * cf - uf3); \
-        const double nm = fm - wm * (fm - eqm) + k_->sm[k];                        \
-        out[k][x] = np + nm;                                                       \
-        out[k + 9][x] = np - nm;                                                   \
+        const double nm = fm - wm * (fm - eqm) + (forced ? k_->sm[k] : 0.0);       \
+        PUT(k, W, np + nm);                                                        \
+        PUT(k + 9, W, np - nm);                                                    \
     } while (0)
 
 /* V(name): the population of the block row name at x, as a double. */
@@ -113,9 +114,34 @@ typedef struct {
 
 /* always inlined: its vector code must stay inside the entry points of this
  * variant (kernel_dispatch.c; tests/python/test_fmu.py checks the FMU) */
+/* direct = 0: results to the block buffer buf (as double); direct = 1:
+ * straight to the rows out[q] (in place: no buffer round trip). forced = 0:
+ * no body force (the forcing terms vanish at compile time). Both are
+ * constants at every call, so each call compiles to its own loop. */
 static inline __attribute__((always_inline)) void collide_block(const consts_t *restrict k_, const real_t *const in[LB_Q], int nb,
-                          double (*restrict out)[KERNEL_BLOCK])
+                          double (*restrict buf)[KERNEL_BLOCK], real_t *const out[LB_Q], int direct,
+                          int forced)
 {
+#if defined(KERNEL_SINGLE)
+#define PUT(q, w, val)                                    \
+    do {                                                  \
+        if (direct) {                                     \
+            out[q][x] = (float)((val) - (w));             \
+        } else {                                          \
+            buf[q][x] = (val);                            \
+        }                                                 \
+    } while (0)
+#else
+#define PUT(q, w, val)                                    \
+    do {                                                  \
+        if (direct) {                                     \
+            out[q][x] = (val);                            \
+        } else {                                          \
+            buf[q][x] = (val);                            \
+        }                                                 \
+    } while (0)
+#endif
+    const double fx = forced ? k_->fx : 0.0, fy = forced ? k_->fy : 0.0, fz = forced ? k_->fz : 0.0;
 #define PTR(name, q) const real_t *restrict name = in[q]
     PTR(f0, 0);
     PTR(f1, 1);
@@ -150,13 +176,13 @@ static inline __attribute__((always_inline)) void collide_block(const consts_t *
         const double jy = d2 + d4 - d5 + d8 + d9;
         const double jz = d3 + d6 - d7 + d8 - d9;
         const double inv = 1.0 / rho;
-        const double ux = (jx + 0.5 * k_->fx) * inv;
-        const double uy = (jy + 0.5 * k_->fy) * inv;
-        const double uz = (jz + 0.5 * k_->fz) * inv;
+        const double ux = (jx + 0.5 * fx) * inv;
+        const double uy = (jy + 0.5 * fy) * inv;
+        const double uz = (jz + 0.5 * fz) * inv;
         const double usq15 = 1.5 * (ux * ux + uy * uy + uz * uz);
-        const double uf3 = 3.0 * (ux * k_->fx + uy * k_->fy + uz * k_->fz);
+        const double uf3 = 3.0 * (ux * fx + uy * fy + uz * fz);
         const double eq0 = (1.0 / 3.0) * rho * (1.0 - usq15);
-        out[0][x] = V(f0) - wp * (V(f0) - eq0) - gp * (1.0 / 3.0) * uf3;
+        PUT(0, 1.0 / 3.0, V(f0) - wp * (V(f0) - eq0) - gp * (1.0 / 3.0) * uf3);
         PAIR(1, 1, 0, 0, 1.0 / 18.0);
         PAIR(2, 0, 1, 0, 1.0 / 18.0);
         PAIR(3, 0, 0, 1, 1.0 / 18.0);
@@ -169,6 +195,7 @@ static inline __attribute__((always_inline)) void collide_block(const consts_t *
     }
 }
 #undef PAIR
+#undef PUT
 #undef V
 
 #if !defined(KERNEL_SINGLE)
@@ -238,6 +265,7 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
 {
     consts_t k;
     kernel_consts(p, &k);
+    const int forced = k.fx != 0.0 || k.fy != 0.0 || k.fz != 0.0;
     ptrdiff_t off[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
         off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
@@ -258,14 +286,22 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
                     for (int q = 0; q < LB_Q; q++) {
                         in[q] = src + (size_t)q * ncells + base - off[q];
                     }
-                    collide_block(&k, in, nb, buf);
 #if defined(KERNEL_SINGLE)
                     real_t *out[LB_Q];
                     for (int q = 0; q < LB_Q; q++) {
                         out[q] = dst + (size_t)q * ncells + base;
                     }
-                    store_block(out, nb, buf);
+                    if (forced) {
+                        collide_block(&k, in, nb, buf, out, 1, 1);
+                    } else {
+                        collide_block(&k, in, nb, buf, out, 1, 0);
+                    }
 #else
+                    if (forced) {
+                        collide_block(&k, in, nb, buf, NULL, 0, 1);
+                    } else {
+                        collide_block(&k, in, nb, buf, NULL, 0, 0);
+                    }
                     store_block_nt(dst, ncells, base, nb, buf);
 #endif
                 }
@@ -279,28 +315,29 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
 
 /* The in-place (AA) step, layout.h: push = 0 the local kernel (slot q of x
  * in, slot qbar of x out), push = 1 the push kernel (slot qbar of x - c_q in,
- * slot q of x + c_q out). The ghost columns of interior rows are computed
- * too; the push kernel then reads and writes one cell beyond the first and
- * the last interior row, inside the array's margin (fluid.c). */
+ * slot q of x + c_q out). Interior cells only; results go straight to the
+ * array (no block buffer: in place the lines were just read). */
 void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int push)
 {
     consts_t k;
     kernel_consts(p, &k);
+    const int forced = k.fx != 0.0 || k.fy != 0.0 || k.fz != 0.0;
     ptrdiff_t off[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
         off[q] = push ? grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]) : 0;
     }
-    const int ny = g->n[1], nz = g->n[2], sx = g->s[0];
+    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const size_t ncells = g->ncells;
 #pragma omp parallel
     {
-        double buf[LB_Q][KERNEL_BLOCK] __attribute__((aligned(64)));
+        double buf[1][KERNEL_BLOCK]; /* unused: results go straight to the array */
 #pragma omp for collapse(2) schedule(static)
         for (int z = 1; z <= nz; z++) {
             for (int y = 1; y <= ny; y++) {
                 const size_t row = grid_index(g, 0, y, z);
-                for (int x0 = 0; x0 < sx; x0 += KERNEL_BLOCK) {
-                    const int nb = sx - x0 < KERNEL_BLOCK ? sx - x0 : KERNEL_BLOCK;
+                /* the interior cells only: no alignment to keep (ordinary stores) */
+                for (int x0 = 1; x0 <= nx; x0 += KERNEL_ROW) {
+                    const int nb = nx + 1 - x0 < KERNEL_ROW ? nx + 1 - x0 : KERNEL_ROW;
                     const size_t base = row + (size_t)x0;
                     const real_t *in[LB_Q];
                     real_t *out[LB_Q];
@@ -309,8 +346,11 @@ void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int p
                         in[q] = f + (size_t)(push ? o : q) * ncells + base - off[q];
                         out[q] = f + (size_t)(push ? q : o) * ncells + base + off[q];
                     }
-                    collide_block(&k, in, nb, buf);
-                    store_block(out, nb, buf);
+                    if (forced) {
+                        collide_block(&k, in, nb, buf, out, 1, 1);
+                    } else {
+                        collide_block(&k, in, nb, buf, out, 1, 0);
+                    }
                 }
             }
         }

@@ -66,13 +66,13 @@ static void reference_step(const grid_t *g, const kernel_params_t *p, const doub
 
 /* Random populations, nsteps steps of the component (boundary stage and
  * kernel, in the scene's streaming layout) against nsteps reference steps. */
-static void compare(collision_t collision, double tau, int nx, int ny, int nz, streaming_t streaming, int nsteps,
-                    precision_t precision)
+static void compare_forced(collision_t collision, double tau, int nx, int ny, int nz, streaming_t streaming,
+                           int nsteps, precision_t precision, double force)
 {
     scene_t s = test_box(nx, ny, nz, tau, collision);
-    s.fluid.body_force[0] = 1.3e-5;
-    s.fluid.body_force[1] = -0.7e-5;
-    s.fluid.body_force[2] = 2.1e-5;
+    s.fluid.body_force[0] = 1.3 * force;
+    s.fluid.body_force[1] = -0.7 * force;
+    s.fluid.body_force[2] = 2.1 * force;
     s.fluid.streaming = streaming;
     s.fluid.precision = precision;
     fluid_t *fl = test_fluid(&s);
@@ -129,6 +129,20 @@ static void compare(collision_t collision, double tau, int nx, int ny, int nz, s
     fluid_free(fl);
 }
 
+static void compare(collision_t collision, double tau, int nx, int ny, int nz, streaming_t streaming, int nsteps,
+                    precision_t precision)
+{
+    compare_forced(collision, tau, nx, ny, nz, streaming, nsteps, precision, 1e-5);
+}
+
+/* without a body force the kernels compile the forcing terms away */
+static void test_unforced_equals_reference(void)
+{
+    compare_forced(COLLISION_TRT, 0.73, 70, 5, 4, STREAMING_TWO_ARRAY, 1, PRECISION_DOUBLE, 0.0);
+    compare_forced(COLLISION_TRT, 0.73, 70, 5, 4, STREAMING_IN_PLACE, 3, PRECISION_DOUBLE, 0.0);
+    compare_forced(COLLISION_BGK, 1.7, 13, 6, 7, STREAMING_IN_PLACE, 3, PRECISION_SINGLE, 0.0);
+}
+
 static void test_fused_equals_reference_trt(void)
 {
     compare(COLLISION_TRT, 0.73, 70, 5, 4, STREAMING_TWO_ARRAY, 1, PRECISION_DOUBLE);
@@ -175,5 +189,6 @@ void kernel_register_tests(void)
     CU_add_test(s, "in-place (AA) BGK kernel equals the reference kernel", test_in_place_equals_reference_bgk);
     CU_add_test(s, "single precision (f - w stored as float) equals the reference kernel to 1e-9",
                 test_single_equals_reference);
+    CU_add_test(s, "kernels without a body force equal the reference kernel", test_unforced_equals_reference);
     CU_add_test(s, "TRT magic parameter", test_magic_parameter);
 }

@@ -173,11 +173,13 @@ def test_bench_json(coupler):
         assert set(r) == {"size", "threads", "precision", "streaming", "mlups", "bandwidth_gbs", "limit_mlups",
                           "ratio", "bytes_per_cell"}
         assert r["size"] == 24 and r["mlups"] > 0
-        assert r["limit_mlups"] == pytest.approx(r["bandwidth_gbs"] * 1e9 / 304 / 1e6, rel=1e-3)
-    # both layouts; in place one population array (19 doubles per allocated
+        value = 8 if r["precision"] == "double" else 4
+        assert r["limit_mlups"] == pytest.approx(r["bandwidth_gbs"] * 1e9 / (38 * value) / 1e6, rel=1e-3)
+    # both layouts and precisions; in place one population array (19 values per allocated
     # cell, 24^3 allocates 32 x 26 x 26), two arrays twice that
-    by = {r["streaming"]: r["bytes_per_cell"] for r in rows}
-    assert set(by) == {"in_place", "two_array"}
+    by = {(r["streaming"], r["precision"]): r["bytes_per_cell"] for r in rows}
+    assert set(by) == {(s, p) for s in ("in_place", "two_array") for p in ("double", "single")}
     alloc = 32 * 26 * 26 / 24**3
-    assert by["in_place"] == pytest.approx(alloc * (152 + 1), rel=0.02)
-    assert by["two_array"] == pytest.approx(alloc * (304 + 1), rel=0.02)
+    for (s, p), b in by.items():
+        assert b == pytest.approx(alloc * ((2 if s == "two_array" else 1) * 19 * (8 if p == "double" else 4) + 1),
+                                  rel=0.02), (s, p)
