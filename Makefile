@@ -81,7 +81,9 @@ validate: deps
 
 bench: deps
 	@$(MAKE) --no-print-directory all
-	$(BUILD)/coupler bench
+	@uptime
+	$(BUILD)/coupler bench --size 128 --size 256
+	$(BUILD)/coupler bench --coupled models/dual_star_shear.yaml --steps 200
 
 $(BUILD)/rigid_report: $(LIB_OBJ) $(call obj,tests/rigid/rigid_report.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)

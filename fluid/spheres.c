@@ -1,7 +1,10 @@
 /* spheres.c — map, refill, links and momentum exchange of moving spheres
- * (spheres.h). Serial on purpose: the per-sphere sums are then independent
- * of the thread count (bit-identical results), and the work is O(surface),
- * small next to the O(volume) kernel. */
+ * (spheres.h). The map stage (covering, uncovering, refill) is serial and
+ * touches only the cells inside the spheres; links and fill run in parallel
+ * over spheres, each sphere with its own list of links, so that every
+ * per-sphere sum is taken in a fixed order (bit-identical results for any
+ * thread count) and the work is O(surface), found from each sphere's
+ * bounding box. When no sphere moved, flags and links are kept. */
 #include "spheres.h"
 
 #include "../common/coupling.h"

@@ -177,3 +177,28 @@ def test_checkpoint_every_must_be_positive(coupler, tmp_path):
     p = run("run", SCENE, "-o", tmp_path / "x.h5", "--checkpoint-every", "-1")
     assert p.returncode == 2
     assert "--checkpoint-every takes a simulated time > 0" in p.stderr
+
+
+def test_sigkill_without_checkpoint_keeps_the_rows_written(coupler, reference, tmp_path):
+    # rows are buffered and written at least once a second (coupler/output.h): a run killed
+    # by SIGKILL, with no checkpoint and no clean-up, leaves a readable file whose rows are
+    # the uninterrupted run's first rows, bit for bit, and which lacks at most the rows of
+    # the last second before the kill
+    out = tmp_path / "killed.h5"
+    proc = start("run", SCENE, "-o", out, "--steps", STEPS, "--quiet", "--set", "run.fields=false",
+                 "--set", "run.output_interval=1.6667e-5")  # a row every step
+    time.sleep(4.0)
+    assert proc.poll() is None, "the run ended before it was killed"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    ref = datasets(reference["verlet"])
+    with h5py.File(out, "r") as f:
+        t = f["/time"][()]
+        v = f["/spheres/velocity"][()]
+    assert len(t) > 10, "fewer than 10 rows after 4 s"
+    assert np.all(np.diff(t) > 0)
+    # the first rows agree with the reference run at the times both have
+    common = np.isin(t, ref["time"])
+    assert common.sum() >= 1
+    idx = np.searchsorted(ref["time"], t[common])
+    assert np.array_equal(ref["spheres/velocity"][idx], v[common])
