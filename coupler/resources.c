@@ -32,7 +32,7 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
     need->grid_cells = (double)g.ncells;
     need->cell_bytes = units_bytes_per_cell(s);
     const double grid = need->grid_cells * need->cell_bytes;
-    need->memory = grid + interior * FIELD_BYTES_PER_CELL;
+    need->memory = grid + (s->run.fields ? interior * FIELD_BYTES_PER_CELL : 0.0); /* buffers only with fields */
     /* a row: time, fluid mass, momentum, energy; per sphere 5 vectors and a
      * body id; per connection 2 vectors and a flag; bodies: count, 2 vectors */
     const double ns = scene_total_spheres(s), nc = s->nconnections;
@@ -45,7 +45,7 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
         need->fields = snaps * interior * FIELD_BYTES_PER_CELL;
     }
     if (checkpoints) {
-        /* the serialized fluid state: both population arrays and the flags,
+        /* the serialized fluid state: the population array(s) and the flags,
          * plus a copy of the output rows */
         need->checkpoint = grid + need->output;
         /* while a checkpoint is written the FMU's state copy and its serialized

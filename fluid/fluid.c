@@ -508,6 +508,66 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
     momentum[2] = jz;
 }
 
+void fluid_diagnostics_lattice(fluid_t *fl, double *mass, double momentum[3], double *kinetic, double *umax,
+                               double peak[3])
+{
+    const grid_t *g = &fl->g;
+    const pops_t pf = fluid_pops(fl);
+    const int nz = g->n[2];
+    enum { NV = 9 }; /* mass, momentum 3, kinetic, umax, peak 3 */
+    double *plane = calloc((size_t)nz * NV, sizeof(double));
+    if (plane == NULL) {
+        *mass = *kinetic = *umax = NAN;
+        momentum[0] = momentum[1] = momentum[2] = peak[0] = peak[1] = peak[2] = NAN;
+        return;
+    }
+#pragma omp parallel for schedule(static)
+    for (int z = 1; z <= nz; z++) {
+        double *v = plane + (size_t)(z - 1) * NV;
+        for (int y = 1; y <= g->n[1]; y++) {
+            for (int x = 1; x <= g->n[0]; x++) {
+                const size_t i = grid_index(g, x, y, z);
+                if (fl->flags[i] != CELL_FLUID) {
+                    continue;
+                }
+                double r, u[3];
+                local_moments(fl, &pf, i, &r, u);
+                const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+                v[0] += r;
+                for (int a = 0; a < 3; a++) {
+                    v[1 + a] += r * u[a];
+                    if (fabs(u[a]) > fabs(v[6 + a])) {
+                        v[6 + a] = u[a];
+                    }
+                }
+                v[4] += 0.5 * r * uu;
+                v[5] = fmax(v[5], sqrt(uu));
+            }
+        }
+    }
+    double t[NV] = {0.0};
+    for (int z = 0; z < nz; z++) {
+        const double *v = plane + (size_t)z * NV;
+        for (int k = 0; k < 5; k++) {
+            t[k] += v[k];
+        }
+        t[5] = fmax(t[5], v[5]);
+        for (int a = 0; a < 3; a++) {
+            if (fabs(v[6 + a]) > fabs(t[6 + a])) {
+                t[6 + a] = v[6 + a];
+            }
+        }
+    }
+    free(plane);
+    *mass = t[0];
+    for (int a = 0; a < 3; a++) {
+        momentum[a] = t[1 + a];
+        peak[a] = t[6 + a];
+    }
+    *kinetic = t[4];
+    *umax = t[5];
+}
+
 status_t fluid_check(fluid_t *fl, double mach_limit)
 {
     const grid_t *g = &fl->g;

@@ -41,6 +41,13 @@ void fluid_flags(const fluid_t *fl, unsigned char *flags);
 
 /* Total mass and momentum of the interior (lattice units), for diagnostics. */
 void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3]);
+/* Totals over the fluid cells in one pass, lattice units: mass sum rho,
+ * momentum sum rho u, kinetic energy sum rho u^2 / 2, the largest |u| and,
+ * per axis, the velocity component of largest magnitude (u from the
+ * post-collision moments, fluid_moments_lattice). Summed plane by plane and
+ * the planes in order: the same result for any number of threads. */
+void fluid_diagnostics_lattice(fluid_t *fl, double *mass, double momentum[3], double *kinetic, double *umax,
+                               double peak[3]);
 
 /* Scans for numerical trouble: a non-finite or non-positive density, or a
  * velocity above mach_limit times the lattice speed of sound. Returns

@@ -290,8 +290,9 @@ static status_t fluid_fmi_create(const scene_t *s, double t0, const log_t *log, 
     m->kin = calloc(9 * (size_t)m->ns + 1, sizeof(double));
     m->is_free = calloc((size_t)m->ns + 1, 1);
     if (m->kin == NULL || m->is_free == NULL) {
+        const size_t bytes = (9 * (size_t)m->ns + 1) * sizeof(double) + (size_t)m->ns + 1;
         fluid_fmi_free(m);
-        return oom(log, "the sphere kinematics", (9 * (size_t)m->ns + 1) * sizeof(double) + (size_t)m->ns + 1);
+        return oom(log, "the sphere kinematics", bytes);
     }
     status_t st = fluid_create(s, log, &m->fl);
     if (st >= STATUS_ERROR) {
@@ -302,14 +303,6 @@ static status_t fluid_fmi_create(const scene_t *s, double t0, const log_t *log, 
     int n[3];
     fluid_cells(m->fl, n);
     m->ncells = (size_t)n[0] * n[1] * n[2];
-    m->rho = malloc(sizeof(double) * m->ncells);
-    m->u = malloc(sizeof(double) * 3 * m->ncells);
-    m->flags = malloc(m->ncells);
-    if (m->rho == NULL || m->u == NULL || m->flags == NULL) {
-        fluid_fmi_free(m);
-        return log_msg(log, STATUS_FATAL, "fluid", "out of memory for the field buffers of %zu cells (%.4g MB)",
-                       m->ncells, 33.0 * (double)m->ncells / 1e6);
-    }
     m->scene = s;
     m->log = *log;
     m->end_step = (long)ceil(s->run.end_time / fluid_units(m->fl)->dt - 1e-9);
@@ -361,6 +354,21 @@ static status_t fluid_fmi_set_string(void *comp, const fmi_var_t *var, const cha
     }
     h5fields_close(m->fields);
     m->fields = NULL;
+    /* the field buffers exist only where fields are written */
+    if (m->rho == NULL) {
+        m->rho = malloc(sizeof(double) * m->ncells);
+        m->u = malloc(sizeof(double) * 3 * m->ncells);
+        m->flags = malloc(m->ncells);
+        if (m->rho == NULL || m->u == NULL || m->flags == NULL) {
+            free(m->rho);
+            free(m->u);
+            free(m->flags);
+            m->rho = m->u = NULL;
+            m->flags = NULL;
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the field buffers of %zu cells (%.4g MB)",
+                           m->ncells, 33.0 * (double)m->ncells / 1e6);
+        }
+    }
     int n[3];
     fluid_cells(m->fl, n);
     const double dx = fluid_units(m->fl)->dx;
@@ -499,28 +507,20 @@ static void fluid_fmi_outputs(void *comp, const fmi_vars_t *vars, double *values
     }
 }
 
-/* Totals over the fluid cells (one pass over the grid). */
+/* Totals over the fluid cells (one pass over the grid, no field buffers). */
 static void fluid_fmi_lazy_outputs(void *comp, const fmi_vars_t *vars, double *values)
 {
     fluid_fmi_t *m = comp;
-    load_fields(m);
-    const double dx = fluid_units(m->fl)->dx, cell = dx * dx * dx;
-    double mass = 0.0, mom[3] = {0, 0, 0}, ke = 0.0, vmax = 0.0, peak[3] = {0, 0, 0};
-    for (size_t i = 0; i < m->ncells; i++) {
-        if (m->flags[i] != 0) {
-            continue;
-        }
-        const double r = m->rho[i], *u = &m->u[3 * i];
-        const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-        mass += r * cell;
-        for (int a = 0; a < 3; a++) {
-            mom[a] += r * u[a] * cell;
-            if (fabs(u[a]) > fabs(peak[a])) {
-                peak[a] = u[a];
-            }
-        }
-        ke += 0.5 * r * uu * cell;
-        vmax = fmax(vmax, sqrt(uu));
+    const units_t *un = fluid_units(m->fl);
+    const double uv = units_velocity(un), cell = un->dx * un->dx * un->dx;
+    double mass, mom[3], ke, vmax, peak[3];
+    fluid_diagnostics_lattice(m->fl, &mass, mom, &ke, &vmax, peak);
+    mass *= un->rho0 * cell;
+    ke *= un->rho0 * uv * uv * cell;
+    vmax *= uv;
+    for (int a = 0; a < 3; a++) {
+        mom[a] *= un->rho0 * uv * cell;
+        peak[a] *= uv;
     }
     for (int j = 0; j < vars->n; j++) {
         const fmi_var_t *v = &vars->v[j];
