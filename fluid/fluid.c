@@ -24,16 +24,20 @@ enum { POPS_MARGIN_BYTES = 64 };
 
 static void *alloc_populations(const grid_t *g, size_t esize)
 {
-    if (g->ncells > (SIZE_MAX - 1024) / (LB_Q * esize)) {
+    if (g->stride > (SIZE_MAX - 1024) / (LB_Q * esize)) {
         return NULL; /* more bytes than an address space holds */
     }
-    const size_t body = (size_t)LB_Q * g->ncells * esize;
+    const size_t body = (size_t)LB_Q * g->stride * esize;
     size_t bytes = body + 2 * POPS_MARGIN_BYTES;
     bytes = (bytes + 63) / 64 * 64;
     unsigned char *m = aligned_alloc(64, bytes);
     if (m != NULL) {
         memset(m, 0, POPS_MARGIN_BYTES);
         memset(m + POPS_MARGIN_BYTES + body, 0, bytes - POPS_MARGIN_BYTES - body);
+        for (int q = 0; q < LB_Q; q++) { /* the cells between ncells and the stride */
+            memset(m + POPS_MARGIN_BYTES + ((size_t)q * g->stride + g->ncells) * esize, 0,
+                   (g->stride - g->ncells) * esize);
+        }
     }
     return m;
 }
@@ -47,7 +51,7 @@ static void init_uniform(fluid_t *fl, double rho, const double u[3])
     for (int q = 0; q < LB_Q; q++) {
         feq[q] = lb_feq(q, rho, u[0], u[1], u[2]);
     }
-    const size_t N = g->ncells;
+    const size_t N = g->stride;
     const size_t plane = (size_t)g->s[0] * (size_t)g->s[1];
     const int swapped = fl->layout == LAYOUT_SWAPPED; /* post_slot(q, x) is slot qbar of x */
     for (int k = 0; k < fluid_arrays(fl); k++) {
@@ -397,7 +401,7 @@ void fluid_cells(const fluid_t *fl, int n[3])
 
 size_t fluid_memory_bytes(const fluid_t *fl)
 {
-    return (size_t)fluid_arrays(fl) * ((size_t)LB_Q * fl->g.ncells * fluid_value_bytes(fl) + 2 * POPS_MARGIN_BYTES) +
+    return (size_t)fluid_arrays(fl) * ((size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl) + 2 * POPS_MARGIN_BYTES) +
            fl->g.ncells + fl->walls.nlinks * sizeof(ghost_link_t) + fl->walls.ncopies * sizeof(copy_link_t) +
            sizeof *fl;
 }

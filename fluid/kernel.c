@@ -271,7 +271,7 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
         off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
     }
     const int ny = g->n[1], nz = g->n[2], sx = g->s[0];
-    const size_t ncells = g->ncells;
+    const size_t ncells = g->stride;
 #pragma omp parallel
     {
         double buf[LB_Q][KERNEL_BLOCK] __attribute__((aligned(64)));
@@ -327,7 +327,7 @@ void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int p
         off[q] = push ? grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]) : 0;
     }
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
-    const size_t ncells = g->ncells;
+    const size_t ncells = g->stride;
 #pragma omp parallel
     {
         double buf[1][KERNEL_BLOCK]; /* unused: results go straight to the array */

@@ -46,7 +46,7 @@ typedef enum { LAYOUT_PULL, LAYOUT_SWAPPED, LAYOUT_PUSHED } layout_state_t;
 typedef struct {
     double *f;            /* double storage, or NULL */
     float *h;             /* single storage (f - w_q), or NULL */
-    size_t n;             /* cells per population (grid.h ncells) */
+    size_t n;             /* cells from one population to the next (grid.h stride) */
     ptrdiff_t off[LB_Q];  /* offset of the neighbour at +c_q */
     layout_state_t state;
 } pops_t;
@@ -55,7 +55,7 @@ static inline void pops_init(pops_t *p, const grid_t *g, void *data, int single,
 {
     p->f = single ? NULL : (double *)data;
     p->h = single ? (float *)data : NULL;
-    p->n = g->ncells;
+    p->n = g->stride;
     p->state = state;
     for (int q = 0; q < LB_Q; q++) {
         p->off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);

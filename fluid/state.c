@@ -32,7 +32,7 @@ typedef struct {
 
 size_t fluid_state_size(const fluid_t *fl)
 {
-    return sizeof(state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.ncells * fluid_value_bytes(fl) + fl->g.ncells +
+    return sizeof(state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.stride * fluid_value_bytes(fl) + fl->g.ncells +
            (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t);
 }
 
@@ -61,7 +61,7 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
     unsigned char *p = buf;
     memcpy(p, &h, sizeof h);
     p += sizeof h;
-    const size_t fbytes = (size_t)LB_Q * fl->g.ncells * fluid_value_bytes(fl);
+    const size_t fbytes = (size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl);
     for (int k = 0; k < fluid_arrays(fl); k++) {
         memcpy(p, fl->f[k == 0 ? fl->cur : 1 - fl->cur], fbytes);
         p += fbytes;
@@ -97,7 +97,7 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     if (h.layout != LAYOUT_PULL && h.layout != LAYOUT_SWAPPED && h.layout != LAYOUT_PUSHED) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "the state names layout state %d (0 to 2 expected)", h.layout);
     }
-    const size_t fbytes = (size_t)LB_Q * fl->g.ncells * fluid_value_bytes(fl);
+    const size_t fbytes = (size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl);
     const size_t need = sizeof h + (size_t)fluid_arrays(fl) * fbytes + fl->g.ncells + (size_t)h.nspheres * sizeof(sphere_t) +
                         (size_t)h.nsolid * sizeof(size_t);
     if (size < need) {
