@@ -4,6 +4,7 @@
 #include "drag_report.h"
 
 #include "sphere_harness.h"
+#include "test_util.h"
 
 #include <math.h>
 #include <omp.h>
@@ -104,6 +105,8 @@ int drag_plan_parse(drag_plan_t *plan, int argc, char **argv)
             plan->nradii = parse_list(w + 6, plan->radii, DRAG_MAX);
         } else if (!strncmp(w, "taus=", 5)) {
             plan->ntaus = parse_list(w + 5, plan->taus, DRAG_MAX);
+        } else if (!strcmp(w, "precision=single") || !strcmp(w, "precision=double")) {
+            test_box_precision = w[10] == 's' ? PRECISION_SINGLE : PRECISION_DOUBLE;
         } else if (!strncmp(w, "positions=", 10)) {
             plan->npositions = atoi(w + 10);
         } else if (!strncmp(w, "schemes=", 8)) {

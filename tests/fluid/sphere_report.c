@@ -121,7 +121,7 @@ int main(int argc, char **argv)
     static const char *cname[] = {"bgk", "trt"};
     const double *radii = rad;
     if (do_drag) {
-        /* sphere_report drag DIR [schemes=.. radii=.. taus=.. positions=..] (drag_report.h) */
+        /* sphere_report drag DIR [schemes=.. radii=.. taus=.. positions=.. precision=single|double] (drag_report.h) */
         drag_plan_t plan;
         const int bad = drag_plan_parse(&plan, argc > 3 ? argc - 3 : 0, argv + 3);
         if (bad != 0) {

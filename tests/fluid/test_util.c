@@ -5,6 +5,8 @@
 #include <stdio.h>
 #include <string.h>
 
+precision_t test_box_precision = PRECISION_DOUBLE;
+
 scene_t test_box(int nx, int ny, int nz, double tau, collision_t collision)
 {
     scene_t s;
@@ -23,6 +25,7 @@ scene_t test_box(int nx, int ny, int nz, double tau, collision_t collision)
     s.fluid.dt = 1.0;
     s.fluid.collision = collision;
     s.fluid.magic = 3.0 / 16.0;
+    s.fluid.precision = test_box_precision;
     s.run.end_time = 1.0;
     s.run.output_interval = 1.0;
     return s;

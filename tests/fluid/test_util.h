@@ -8,6 +8,8 @@
 #include "../../fluid/fluid.h"
 
 /* A periodic box of nx*ny*nz cells with relaxation time tau. */
+/* The precision of the scenes test_box makes (the reports' precision= option). */
+extern precision_t test_box_precision;
 scene_t test_box(int nx, int ny, int nz, double tau, collision_t collision);
 /* Creates the fluid or fails the current test; NULL on failure. */
 fluid_t *test_fluid(const scene_t *s);
