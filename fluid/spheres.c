@@ -20,6 +20,8 @@
 /* |1 - omega_minus| below which multireflection cannot recover the
  * pre-collision populations from the post-collision ones (spheres_fill). */
 #define SPHERES_MR_DECAY_MIN 0.05
+/* links ahead at which spheres_fill prefetches a cell's populations */
+#define FILL_AHEAD 12
 
 enum { FLAG_SOLID = 1, FLAG_GHOST = 2, FLAG_MARK = 4, FLAG_FRESH = 16 };
 
@@ -525,7 +527,10 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
     for (int q = 0; q < LB_Q; q++) {
         off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
     }
-    list->n = 0;
+    /* the list in locals while it grows: the lists of all spheres sit side by
+     * side, and threads writing their counts would share cache lines */
+    sphere_link_t *links = list->l;
+    size_t nl = 0, cap = list->cap;
     int lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
         lo[a] = (int)floor(p->c[a] - p->r) - 1;
@@ -595,15 +600,18 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
                         }
                         delta = 1.0;
                     }
-                    if (!grow((void **)&list->l, &list->cap, list->n + 1, sizeof *list->l)) {
+                    if (!grow((void **)&links, &cap, nl + 1, sizeof *links)) {
+                        list->l = links;
+                        list->cap = cap;
+                        list->n = nl;
                         return 0;
                     }
-                    sphere_link_t *l = &list->l[list->n++];
-                    memset(l, 0, sizeof *l);
+                    sphere_link_t *l = &links[nl++];
                     l->q = q;
                     l->sphere = k;
                     l->delta = delta;
-                    l->xf = i;
+                    l->xf = l->xff = l->xfff = i; /* xff, xfff: replaced where they exist */
+                    l->fresh = 0;
                     const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
                     boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, l->a, l->b,
@@ -615,6 +623,9 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
             }
         }
     }
+    list->l = links;
+    list->cap = cap;
+    list->n = nl;
     return 1;
 }
 
@@ -715,6 +726,19 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         if (l->xf != cell) { /* the links of a cell are consecutive (sphere_links) */
             cell = l->xf;
             rho = pops_moments(f, cell, j);
+        }
+        /* the fill waits on memory (the 19 scattered values of a cell's
+         * moments): fetch those of the cell FILL_AHEAD links on in advance */
+        if (n + FILL_AHEAD < list->n && list->l[n + FILL_AHEAD].xf != list->l[n + FILL_AHEAD - 1].xf) {
+            const size_t ahead = list->l[n + FILL_AHEAD].xf;
+            for (int qq = 0; qq < LB_Q; qq++) {
+                const size_t slot = pops_post_slot(f, qq, ahead);
+                if (f->h != NULL) {
+                    __builtin_prefetch(f->h + slot);
+                } else {
+                    __builtin_prefetch(f->f + slot);
+                }
+            }
         }
         double wr[3], uw[3];
         cross(p->w, l->rw, wr);
