@@ -305,6 +305,9 @@ void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
         /* the mirrored direction has the same weight */
         pops_copy(p, pops_in_slot(p, cp[i].q, cp[i].cell), pops_post_slot(p, cp[i].sq, cp[i].src));
     }
+    /* the links of a cell are consecutive (walls_build): its moments once */
+    size_t last = (size_t)-1;
+    double rho_last = 0.0, u_last[3];
 #pragma omp for schedule(static)
     for (ptrdiff_t i = 0; i < n; i++) {
         const ghost_link_t *l = &w->links[i];
@@ -316,9 +319,11 @@ void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
         case LINK_BOUNCE: {
             double v = bounced;
             if (l->coef != 0.0) {
-                double rho, u[3];
-                moments(p, l->cell, &rho, u);
-                v += l->coef * rho;
+                if (l->cell != last) {
+                    last = l->cell;
+                    moments(p, last, &rho_last, u_last);
+                }
+                v += l->coef * rho_last;
             }
             pops_write(p, l->q, dst, v);
             break;
