@@ -410,7 +410,8 @@ size_t fluid_memory_bytes(const fluid_t *fl)
  * collision keeps the density and adds the force F to the momentum, so the
  * velocity it used is u = (sum c f~ - F/2) / rho (Guo et al. 2002). Needs no
  * boundary values, and so is exact next to walls and spheres. */
-static void local_moments(const fluid_t *fl, const pops_t *f, size_t i, double *rho, double u[3])
+static inline __attribute__((always_inline)) void local_moments(const fluid_t *fl, const pops_t *f, size_t i,
+                                                               double *rho, double u[3])
 {
     double j[3];
     *rho = pops_moments(f, i, j);
@@ -512,41 +513,79 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
     momentum[2] = jz;
 }
 
+enum { DIAG_NV = 9 }; /* mass, momentum 3, kinetic, umax, peak 3 */
+
+/* The sums of one z plane, with the layout state and precision known at
+ * compile time (one copy per combination below). */
+static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_t *fl, const pops_t *p0, int z,
+                                                                    double *v, layout_state_t state, int single)
+{
+    const grid_t *g = &fl->g;
+    pops_t pl = *p0;
+    pl.state = state;
+    if (!single) {
+        pl.h = NULL;
+    } else if (pl.h == NULL) {
+        __builtin_unreachable();
+    }
+    for (int y = 1; y <= g->n[1]; y++) {
+        for (int x = 1; x <= g->n[0]; x++) {
+            const size_t i = grid_index(g, x, y, z);
+            if (fl->flags[i] != CELL_FLUID) {
+                continue;
+            }
+            double r, u[3];
+            local_moments(fl, &pl, i, &r, u);
+            const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+            v[0] += r;
+            for (int a = 0; a < 3; a++) {
+                v[1 + a] += r * u[a];
+                if (fabs(u[a]) > fabs(v[6 + a])) {
+                    v[6 + a] = u[a];
+                }
+            }
+            v[4] += 0.5 * r * uu;
+            v[5] = fmax(v[5], sqrt(uu));
+        }
+    }
+}
+
 void fluid_diagnostics_lattice(fluid_t *fl, double *mass, double momentum[3], double *kinetic, double *umax,
                                double peak[3])
 {
     const grid_t *g = &fl->g;
     const pops_t pf = fluid_pops(fl);
     const int nz = g->n[2];
-    enum { NV = 9 }; /* mass, momentum 3, kinetic, umax, peak 3 */
+    enum { NV = DIAG_NV };
     double *plane = calloc((size_t)nz * NV, sizeof(double));
     if (plane == NULL) {
         *mass = *kinetic = *umax = NAN;
         momentum[0] = momentum[1] = momentum[2] = peak[0] = peak[1] = peak[2] = NAN;
         return;
     }
+    const int variant = 2 * (int)pf.state + (pf.h != NULL);
 #pragma omp parallel for schedule(static)
     for (int z = 1; z <= nz; z++) {
         double *v = plane + (size_t)(z - 1) * NV;
-        for (int y = 1; y <= g->n[1]; y++) {
-            for (int x = 1; x <= g->n[0]; x++) {
-                const size_t i = grid_index(g, x, y, z);
-                if (fl->flags[i] != CELL_FLUID) {
-                    continue;
-                }
-                double r, u[3];
-                local_moments(fl, &pf, i, &r, u);
-                const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-                v[0] += r;
-                for (int a = 0; a < 3; a++) {
-                    v[1 + a] += r * u[a];
-                    if (fabs(u[a]) > fabs(v[6 + a])) {
-                        v[6 + a] = u[a];
-                    }
-                }
-                v[4] += 0.5 * r * uu;
-                v[5] = fmax(v[5], sqrt(uu));
-            }
+        switch (variant) {
+        case 2 * LAYOUT_PULL:
+            diagnostics_plane(fl, &pf, z, v, LAYOUT_PULL, 0);
+            break;
+        case 2 * LAYOUT_PULL + 1:
+            diagnostics_plane(fl, &pf, z, v, LAYOUT_PULL, 1);
+            break;
+        case 2 * LAYOUT_SWAPPED:
+            diagnostics_plane(fl, &pf, z, v, LAYOUT_SWAPPED, 0);
+            break;
+        case 2 * LAYOUT_SWAPPED + 1:
+            diagnostics_plane(fl, &pf, z, v, LAYOUT_SWAPPED, 1);
+            break;
+        case 2 * LAYOUT_PUSHED:
+            diagnostics_plane(fl, &pf, z, v, LAYOUT_PUSHED, 0);
+            break;
+        default:
+            diagnostics_plane(fl, &pf, z, v, LAYOUT_PUSHED, 1);
+            break;
         }
     }
     double t[NV] = {0.0};
