@@ -5,7 +5,7 @@
 /* sizes: cubic grid edges; nsizes 0 means 128. json: one object per line. */
 int bench_main(const int *sizes, int nsizes, int json);
 /* The whole wall time of `coupler run SCENE --steps N` with the scene's bodies
- * and without them (bodies=[], connections=[]), best of two each, and the ratio:
+ * and without them (bodies=[], connections=[]), best of three each, and the ratio:
  * the cost of the particles. */
 int bench_coupled(const char *scene, long steps, const char *lib_dir, int json);
 
