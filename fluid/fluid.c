@@ -521,13 +521,7 @@ static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_
                                                                     double *v, layout_state_t state, int single)
 {
     const grid_t *g = &fl->g;
-    pops_t pl = *p0;
-    pl.state = state;
-    if (!single) {
-        pl.h = NULL;
-    } else if (pl.h == NULL) {
-        __builtin_unreachable();
-    }
+    const pops_t pl = pops_fixed(p0, state, single);
     for (int y = 1; y <= g->n[1]; y++) {
         for (int x = 1; x <= g->n[0]; x++) {
             const size_t i = grid_index(g, x, y, z);
@@ -563,30 +557,12 @@ void fluid_diagnostics_lattice(fluid_t *fl, double *mass, double momentum[3], do
         momentum[0] = momentum[1] = momentum[2] = peak[0] = peak[1] = peak[2] = NAN;
         return;
     }
-    const int variant = 2 * (int)pf.state + (pf.h != NULL);
 #pragma omp parallel for schedule(static)
     for (int z = 1; z <= nz; z++) {
         double *v = plane + (size_t)(z - 1) * NV;
-        switch (variant) {
-        case 2 * LAYOUT_PULL:
-            diagnostics_plane(fl, &pf, z, v, LAYOUT_PULL, 0);
-            break;
-        case 2 * LAYOUT_PULL + 1:
-            diagnostics_plane(fl, &pf, z, v, LAYOUT_PULL, 1);
-            break;
-        case 2 * LAYOUT_SWAPPED:
-            diagnostics_plane(fl, &pf, z, v, LAYOUT_SWAPPED, 0);
-            break;
-        case 2 * LAYOUT_SWAPPED + 1:
-            diagnostics_plane(fl, &pf, z, v, LAYOUT_SWAPPED, 1);
-            break;
-        case 2 * LAYOUT_PUSHED:
-            diagnostics_plane(fl, &pf, z, v, LAYOUT_PUSHED, 0);
-            break;
-        default:
-            diagnostics_plane(fl, &pf, z, v, LAYOUT_PUSHED, 1);
-            break;
-        }
+#define PLANE(state, single) diagnostics_plane(fl, &pf, z, v, state, single)
+        POPS_SPECIALISE(&pf, PLANE);
+#undef PLANE
     }
     double t[NV] = {0.0};
     for (int z = 0; z < nz; z++) {

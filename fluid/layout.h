@@ -115,6 +115,47 @@ static inline void pops_copy(const pops_t *p, size_t dst, size_t src)
 
 static inline double pops_post(const pops_t *p, int q, size_t x) { return pops_read(p, q, pops_post_slot(p, q, x)); }
 
+/* Runs BODY(state, single) with the layout state and the precision of p as
+ * compile-time constants: one copy of BODY per combination, so that the
+ * maps above compile to straight arithmetic in a hot loop. */
+#define POPS_SPECIALISE(p, BODY)                         \
+    do {                                                 \
+        switch (2 * (int)(p)->state + ((p)->h != NULL)) { \
+        case 2 * LAYOUT_PULL:                            \
+            BODY(LAYOUT_PULL, 0);                        \
+            break;                                       \
+        case 2 * LAYOUT_PULL + 1:                        \
+            BODY(LAYOUT_PULL, 1);                        \
+            break;                                       \
+        case 2 * LAYOUT_SWAPPED:                         \
+            BODY(LAYOUT_SWAPPED, 0);                     \
+            break;                                       \
+        case 2 * LAYOUT_SWAPPED + 1:                     \
+            BODY(LAYOUT_SWAPPED, 1);                     \
+            break;                                       \
+        case 2 * LAYOUT_PUSHED:                          \
+            BODY(LAYOUT_PUSHED, 0);                      \
+            break;                                       \
+        default:                                         \
+            BODY(LAYOUT_PUSHED, 1);                      \
+            break;                                       \
+        }                                                \
+    } while (0)
+
+/* A copy of p whose state and precision are the constants state and
+ * single (inside a POPS_SPECIALISE body). */
+static inline __attribute__((always_inline)) pops_t pops_fixed(const pops_t *p, layout_state_t state, int single)
+{
+    pops_t c = *p;
+    c.state = state;
+    if (!single) {
+        c.h = NULL;
+    } else if (c.h == NULL) {
+        __builtin_unreachable(); /* single: the float storage is there */
+    }
+    return c;
+}
+
 /* Density and momentum of the post-collision populations of cell x. */
 static inline double pops_moments(const pops_t *p, size_t x, double j[3])
 {

@@ -675,47 +675,20 @@ void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *f, const pops_t 
      * forgets n^-: two arrays then read the pre-collision values from the other
      * array; in place fluid.c refuses that combination. */
     const double inv_decay = 1.0 / (1.0 - sp->omega_minus);
-    /* one loop per layout state and precision, so that the slot maps
-     * (layout.h) compile to straight arithmetic */
-    const int variant = 2 * (int)f->state + (f->h != NULL);
 #pragma omp parallel for schedule(dynamic, 1)
     for (int k = 0; k < sp->n; k++) {
         const link_list_t *l = &sp->lists[k];
-        switch (variant) {
-        case 2 * LAYOUT_PULL:
-            fill_sphere(sp, f, prev, l, galilean, inv_decay, LAYOUT_PULL, 0);
-            break;
-        case 2 * LAYOUT_PULL + 1:
-            fill_sphere(sp, f, prev, l, galilean, inv_decay, LAYOUT_PULL, 1);
-            break;
-        case 2 * LAYOUT_SWAPPED:
-            fill_sphere(sp, f, prev, l, galilean, inv_decay, LAYOUT_SWAPPED, 0);
-            break;
-        case 2 * LAYOUT_SWAPPED + 1:
-            fill_sphere(sp, f, prev, l, galilean, inv_decay, LAYOUT_SWAPPED, 1);
-            break;
-        case 2 * LAYOUT_PUSHED:
-            fill_sphere(sp, f, prev, l, galilean, inv_decay, LAYOUT_PUSHED, 0);
-            break;
-        default:
-            fill_sphere(sp, f, prev, l, galilean, inv_decay, LAYOUT_PUSHED, 1);
-            break;
-        }
+#define FILL(state, single) fill_sphere(sp, f, prev, l, galilean, inv_decay, state, single)
+        POPS_SPECIALISE(f, FILL);
+#undef FILL
     }
 }
 
-/* The fill of one sphere's links; it writes their slots and the sphere's load. */
 static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0, const pops_t *prev,
                                                              const link_list_t *list, int galilean, double inv_decay,
                                                              layout_state_t state, int single)
 {
-    pops_t fl = *f0; /* a local copy with the state and precision known at compile time */
-    fl.state = state;
-    if (!single) {
-        fl.h = NULL;
-    } else if (fl.h == NULL) {
-        __builtin_unreachable(); /* single: float storage is there */
-    }
+    const pops_t fl = pops_fixed(f0, state, single);
     const pops_t *f = &fl;
     size_t cell = (size_t)-1;
     double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
