@@ -92,14 +92,6 @@ static double ray_delta(const double d[3], int q, double r)
     return (b < 0.0 && t > 0.0 && t <= 1.0 + 1e-12) ? fmin(t, 1.0) : 0.0;
 }
 
-double spheres_ray_delta(const double x[3], int q, const double cen[3], double r, const grid_t *g,
-                         const int periodic[3])
-{
-    double d[3];
-    min_image(g, periodic, x, cen, d);
-    return ray_delta(d, q, r);
-}
-
 static void rotate(const double w[3], double t, const double v[3], double out[3])
 {
     /* Rodrigues: rotation by angle |w| t about w */
@@ -350,12 +342,13 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         moved = memcmp(sp->s[k].c, sp->s[k].cmap, sizeof sp->s[k].c) != 0;
     }
     if (!moved) {
-        sp->nfresh = 0;
-        for (int k = 0; k < sp->n; k++) {
+        /* links marked fresh belong to the last map stage only */
+        for (int k = 0; k < sp->n && sp->nfresh > 0; k++) {
             for (size_t j = 0; j < sp->lists[k].n; j++) {
                 sp->lists[k].l[j].fresh = 0;
             }
         }
+        sp->nfresh = 0;
         return STATUS_OK;
     }
     for (int k = 0; k < sp->n; k++) {
@@ -449,25 +442,12 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         book(sp, g, k, X, mom);
         sp->uncovered_total++;
     }
+    sp->first = 0;
+    /* the uncovered cells keep FLAG_FRESH through the links (fluid cells for
+     * them, marked as fresh on their links: sphere_links) */
+    const status_t st = build_links(sp, g, flags, log);
     for (size_t j = 0; j < sp->nfresh; j++) {
         flags[sp->fresh[j]] = 0;
-    }
-    sp->first = 0;
-    const status_t st = build_links(sp, g, flags, log);
-    /* a cell uncovered this step has no pre-collision populations (refill.c
-     * replaced them): its links go without the multireflection correction for
-     * this one step; with it, a moving sphere's drag fluctuated 16 times more */
-    for (size_t j = 0; j < sp->nfresh; j++) {
-        flags[sp->fresh[j]] |= FLAG_FRESH;
-    }
-    for (int k = 0; k < sp->n; k++) {
-        for (size_t j = 0; j < sp->lists[k].n; j++) {
-            sphere_link_t *l = &sp->lists[k].l[j];
-            l->fresh = (flags[l->xf] & FLAG_FRESH) != 0;
-        }
-    }
-    for (size_t j = 0; j < sp->nfresh; j++) {
-        flags[sp->fresh[j]] &= (uint8_t)~FLAG_FRESH;
     }
     return st;
 }
@@ -483,7 +463,7 @@ static int fluid_at(const spheres_t *sp, const grid_t *g, const uint8_t *flags, 
         return 0;
     }
     *out = grid_index(g, Y[0], Y[1], Y[2]);
-    return flags[*out] == 0;
+    return (flags[*out] & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
 }
 
 /* Spheres whose rays from cells near sphere k can hit first: a link of k
@@ -550,7 +530,7 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
                     continue;
                 }
                 const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
-                if (flags[i] != 0) {
+                if ((flags[i] & ~FLAG_FRESH) != 0) {
                     continue; /* solid or ghost */
                 }
                 int inner = 1; /* all neighbours inside the grid: no wrap needed */
@@ -611,7 +591,11 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
                     l->sphere = k;
                     l->delta = delta;
                     l->xf = l->xff = l->xfff = i; /* xff, xfff: replaced where they exist */
-                    l->fresh = 0;
+                    /* uncovered this step: refill.c replaced its populations, it has no
+                     * pre-collision ones, and its links go without the multireflection
+                     * correction for this one step (with it, a moving sphere's drag
+                     * fluctuated 16 times more) */
+                    l->fresh = (flags[i] & FLAG_FRESH) != 0;
                     const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
                     boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, l->a, l->b,

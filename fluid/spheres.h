@@ -102,9 +102,4 @@ void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *p, const pops_t 
 /* Moves prescribed and fixed spheres by one step (dt = 1). */
 void spheres_advance_prescribed(spheres_t *sp, const grid_t *g, long step);
 
-/* delta of the ray from lattice point x along c_q against a sphere of
- * centre cen and radius r (minimum image on periodic axes); 0 if no hit in (0, 1]. */
-double spheres_ray_delta(const double x[3], int q, const double cen[3], double r, const grid_t *g,
-                         const int periodic[3]);
-
 #endif

@@ -1,9 +1,11 @@
 /* walls.c — builds and applies the ghost links of the domain faces (walls.h).
  *
  * The list is built once: for every interior cell next to a face and every
- * direction q whose upwind neighbour x - c_q is a ghost cell. Reads are from
- * interior slots only and every ghost slot is written by at most one link,
- * so the fill is order-independent and runs in parallel. */
+ * direction q whose upwind neighbour x - c_q is a ghost cell beyond a
+ * non-periodic face (periodic faces need no list: periodic_fill). Reads are
+ * from post-collision values of interior cells only and every in_slot is
+ * written by at most one link, so the fill is order-independent and runs in
+ * parallel. */
 #include "walls.h"
 
 #include "lattice.h"
@@ -107,10 +109,10 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                 }
                 const int xf[3] = {x, y, z};
                 for (int q = 1; q < LB_Q; q++) {
-                    int sp[3], gh[3], crossed[3] = {-1, -1, -1};
+                    int sp[3], crossed[3] = {-1, -1, -1};
                     int best = -1, any = 0;
                     for (int a = 0; a < 3; a++) {
-                        sp[a] = gh[a] = xf[a] - lb_c[q][a];
+                        sp[a] = xf[a] - lb_c[q][a];
                         if (sp[a] >= 1 && sp[a] <= g->n[a]) {
                             continue;
                         }
@@ -134,58 +136,54 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                     l.q = q;
                     l.cell = grid_index(g, x, y, z);
                     int sq = q;
-                    if (best < 0) {
+                    const face_t *face = &s->domain.faces[best];
+                    switch (face->type) {
+                    case FACE_FREE_SLIP: {
+                        int cm[3];
+                        for (int a = 0; a < 3; a++) {
+                            cm[a] = lb_c[q][a];
+                            if (crossed[a] >= 0) {
+                                cm[a] = -cm[a];
+                                sp[a] = crossed[a] == 0 ? 1 : g->n[a];
+                            }
+                        }
+                        for (int r = 1; r < LB_Q; r++) {
+                            if (lb_c[r][0] == cm[0] && lb_c[r][1] == cm[1] && lb_c[r][2] == cm[2]) {
+                                sq = r;
+                            }
+                        }
                         l.kind = LINK_COPY;
-                    } else {
-                        const face_t *face = &s->domain.faces[best];
-                        switch (face->type) {
-                        case FACE_FREE_SLIP: {
-                            int cm[3];
+                        break;
+                    }
+                    case FACE_NO_SLIP:
+                    case FACE_MOVING_WALL:
+                    case FACE_VELOCITY_INLET: {
+                        double uw[3] = {0.0, 0.0, 0.0};
+                        if (face->type == FACE_MOVING_WALL) {
                             for (int a = 0; a < 3; a++) {
-                                cm[a] = lb_c[q][a];
-                                if (crossed[a] >= 0) {
-                                    cm[a] = -cm[a];
-                                    sp[a] = crossed[a] == 0 ? 1 : g->n[a];
-                                }
+                                uw[a] = face->velocity[a] / units_velocity(u);
                             }
-                            for (int r = 1; r < LB_Q; r++) {
-                                if (lb_c[r][0] == cm[0] && lb_c[r][1] == cm[1] && lb_c[r][2] == cm[2]) {
-                                    sq = r;
-                                }
-                            }
-                            l.kind = LINK_COPY;
-                            break;
+                        } else if (face->type == FACE_VELOCITY_INLET) {
+                            inlet_velocity(s, g, u, best, xf, q, uw);
                         }
-                        case FACE_NO_SLIP:
-                        case FACE_MOVING_WALL:
-                        case FACE_VELOCITY_INLET: {
-                            double uw[3] = {0.0, 0.0, 0.0};
-                            if (face->type == FACE_MOVING_WALL) {
-                                for (int a = 0; a < 3; a++) {
-                                    uw[a] = face->velocity[a] / units_velocity(u);
-                                }
-                            } else if (face->type == FACE_VELOCITY_INLET) {
-                                inlet_velocity(s, g, u, best, xf, q, uw);
-                            }
-                            l.kind = LINK_BOUNCE;
-                            l.coef = 6.0 * lb_w[q] * (lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2]);
-                            break;
+                        l.kind = LINK_BOUNCE;
+                        l.coef = 6.0 * lb_w[q] * (lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2]);
+                        break;
+                    }
+                    case FACE_PRESSURE_OUTLET: {
+                        const int a = best / 2;
+                        int x2[3] = {x, y, z};
+                        x2[a] += best % 2 == 0 ? 1 : -1;
+                        if (x2[a] < 1 || x2[a] > g->n[a]) {
+                            x2[a] = xf[a];
                         }
-                        case FACE_PRESSURE_OUTLET: {
-                            const int a = best / 2;
-                            int x2[3] = {x, y, z};
-                            x2[a] += best % 2 == 0 ? 1 : -1;
-                            if (x2[a] < 1 || x2[a] > g->n[a]) {
-                                x2[a] = xf[a];
-                            }
-                            l.kind = LINK_ANTI;
-                            l.cell2 = grid_index(g, x2[0], x2[1], x2[2]);
-                            l.coef = 1.0 + face->pressure / units_pressure(u) / LB_CS2;
-                            break;
-                        }
-                        case FACE_PERIODIC:
-                            break;
-                        }
+                        l.kind = LINK_ANTI;
+                        l.cell2 = grid_index(g, x2[0], x2[1], x2[2]);
+                        l.coef = 1.0 + face->pressure / units_pressure(u) / LB_CS2;
+                        break;
+                    }
+                    case FACE_PERIODIC:
+                        break;
                     }
                     const status_t st = l.kind == LINK_COPY
                                             ? push_copy(w, &capc, l.cell, q, grid_index(g, sp[0], sp[1], sp[2]), sq, log)
