@@ -167,14 +167,11 @@ static void series_append(output_t *o, series_t *s, const void *v)
     }
 }
 
-/* Writes the buffered rows of one series after the o->rows in the file. */
-static status_t series_write(output_t *o, series_t *s)
+/* Writes rows [first, first + n) of a series from buf, extending it to them. */
+static status_t series_put(output_t *o, series_t *s, hsize_t first, hsize_t n, const void *buf)
 {
-    if (s->id < 0) {
-        return STATUS_OK;
-    }
-    hsize_t dims[3] = {o->rows + o->pending, s->dims[1], s->dims[2]}, start[3] = {o->rows, 0, 0};
-    hsize_t count[3] = {o->pending, s->dims[1], s->dims[2]};
+    hsize_t dims[3] = {first + n, s->dims[1], s->dims[2]}, start[3] = {first, 0, 0};
+    hsize_t count[3] = {n, s->dims[1], s->dims[2]};
     status_t st = STATUS_OK;
     if (H5Dset_extent(s->id, dims) < 0) {
         return fail(o, "a time series (extending)");
@@ -182,7 +179,7 @@ static status_t series_write(output_t *o, series_t *s)
     hid_t fs = H5Dget_space(s->id);
     hid_t ms = H5Screate_simple(s->rank, count, NULL);
     if (fs < 0 || ms < 0 || H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, count, NULL) < 0 ||
-        H5Dwrite(s->id, s->type, ms, fs, H5P_DEFAULT, s->buf) < 0) {
+        H5Dwrite(s->id, s->type, ms, fs, H5P_DEFAULT, buf) < 0) {
         st = fail(o, "a time series row");
     }
     if (ms >= 0) {
@@ -192,6 +189,12 @@ static status_t series_write(output_t *o, series_t *s)
         H5Sclose(fs);
     }
     return st;
+}
+
+/* Writes the buffered rows of one series after the o->rows in the file. */
+static status_t series_write(output_t *o, series_t *s)
+{
+    return s->id < 0 ? STATUS_OK : series_put(o, s, o->rows, o->pending, s->buf);
 }
 
 /* Writes every buffered row and flushes the file. */
@@ -420,16 +423,12 @@ status_t output_restore_rows(output_t *o, const char *path, const char *prefix, 
                          SERIES[k].name, (size_t)rows * (size_t)per_row * elem);
         } else if (rows > 0) {
             hsize_t ext[3] = {(hsize_t)rows, s->dims[1], s->dims[2]}, start[3] = {0, 0, 0};
-            hid_t fs = H5Dget_space(d), ms = H5Screate_simple(s->rank, ext, NULL), out_fs = -1;
-            const int ok = fs >= 0 && ms >= 0 && H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, ext, NULL) >= 0 &&
-                           H5Dread(d, s->type, ms, fs, H5P_DEFAULT, buf) >= 0 && H5Dset_extent(s->id, ext) >= 0 &&
-                           (out_fs = H5Dget_space(s->id)) >= 0 &&
-                           H5Dwrite(s->id, s->type, ms, out_fs, H5P_DEFAULT, buf) >= 0;
-            if (!ok) {
+            hid_t fs = H5Dget_space(d), ms = H5Screate_simple(s->rank, ext, NULL);
+            if (fs < 0 || ms < 0 || H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, ext, NULL) < 0 ||
+                H5Dread(d, s->type, ms, fs, H5P_DEFAULT, buf) < 0) {
                 st = fail(o, SERIES[k].name);
-            }
-            if (out_fs >= 0) {
-                H5Sclose(out_fs);
+            } else {
+                st = series_put(o, s, 0, (hsize_t)rows, buf);
             }
             if (ms >= 0) {
                 H5Sclose(ms);
