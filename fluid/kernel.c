@@ -1,11 +1,13 @@
 /* kernel.c — fused pull stream–collide, TRT/BGK with Guo forcing, D3Q19.
  *
- * Data: structure-of-arrays populations (grid.h). Every interior row is cut
- * into blocks of KERNEL_BLOCK cells; a block is pulled and collided into a
- * small buffer that stays in L1 (a branch-free loop the compiler vectorises),
- * then the buffer goes to dst with non-temporal stores, so that dst costs no
- * read-for-ownership: 19 loads and 19 stores of a double per cell update,
- * the minimum for a two-array scheme.
+ * Data: structure-of-arrays populations (grid.h, layout.h), collided in a
+ * branch-free loop the compiler vectorises. Two arrays in double: every
+ * interior row is cut into blocks of KERNEL_BLOCK cells, a block is pulled
+ * and collided into a small buffer that stays in L1, then the buffer goes to
+ * dst with non-temporal stores, so that dst costs no read-for-ownership. In
+ * place (and two arrays in single precision): the results go straight to the
+ * array. Either way 19 loads and 19 stores of a value per cell update, the
+ * minimum.
  *
  * Collision (TRT, Ginzburg 2005; BGK when omega_minus == omega_plus), for each
  * pair (q, qbar) with f± = (f_q ± f_qbar)/2:
@@ -224,28 +226,6 @@ static inline __attribute__((always_inline)) void store_block_nt(double *restric
 
 #endif
 
-/* Copies the block buffer to the rows out[q]: ordinary stores (in place, the
- * lines were just read and are in the cache; for the push kernel the rows
- * are shifted by c_q and so not aligned). Single precision: f - w_q. */
-static inline __attribute__((always_inline)) void store_block(real_t *const out[LB_Q], int nb, double (*restrict buf)[KERNEL_BLOCK])
-{
-    for (int q = 0; q < LB_Q; q++) {
-        real_t *restrict d = out[q];
-#if defined(KERNEL_SINGLE)
-        const double w = lb_w[q];
-#pragma omp simd
-        for (int x = 0; x < nb; x++) {
-            d[x] = (float)(buf[q][x] - w);
-        }
-#else
-#pragma omp simd
-        for (int x = 0; x < nb; x++) {
-            d[x] = buf[q][x];
-        }
-#endif
-    }
-}
-
 static inline __attribute__((always_inline)) void kernel_consts(const kernel_params_t *p, consts_t *k)
 {
     k->wp = p->omega_plus;
@@ -274,7 +254,9 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
     const size_t ncells = g->stride;
 #pragma omp parallel
     {
+#if !defined(KERNEL_SINGLE)
         double buf[LB_Q][KERNEL_BLOCK] __attribute__((aligned(64)));
+#endif
 #pragma omp for collapse(2) schedule(static) nowait
         for (int z = 1; z <= nz; z++) {
             for (int y = 1; y <= ny; y++) {
@@ -292,9 +274,9 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
                         out[q] = dst + (size_t)q * ncells + base;
                     }
                     if (forced) {
-                        collide_block(&k, in, nb, buf, out, 1, 1);
+                        collide_block(&k, in, nb, NULL, out, 1, 1);
                     } else {
-                        collide_block(&k, in, nb, buf, out, 1, 0);
+                        collide_block(&k, in, nb, NULL, out, 1, 0);
                     }
 #else
                     if (forced) {
@@ -330,7 +312,6 @@ void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int p
     const size_t ncells = g->stride;
 #pragma omp parallel
     {
-        double buf[1][KERNEL_BLOCK]; /* unused: results go straight to the array */
 #pragma omp for collapse(2) schedule(static)
         for (int z = 1; z <= nz; z++) {
             for (int y = 1; y <= ny; y++) {
@@ -347,9 +328,9 @@ void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int p
                         out[q] = f + (size_t)(push ? q : o) * ncells + base + off[q];
                     }
                     if (forced) {
-                        collide_block(&k, in, nb, buf, out, 1, 1);
+                        collide_block(&k, in, nb, NULL, out, 1, 1);
                     } else {
-                        collide_block(&k, in, nb, buf, out, 1, 0);
+                        collide_block(&k, in, nb, NULL, out, 1, 0);
                     }
                 }
             }
