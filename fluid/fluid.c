@@ -16,27 +16,19 @@
 #include <stdint.h>
 #include <string.h>
 
-/* One population array of values of esize bytes with a margin of
- * POPS_MARGIN_BYTES before and after: the in-place push kernel touches one
- * cell beyond each end (kernel.c). Returns the allocation; the array starts
- * POPS_MARGIN_BYTES into it. */
-enum { POPS_MARGIN_BYTES = 64 };
-
+/* One population array of values of esize bytes, 64-byte aligned; the cells
+ * between ncells and the stride of each population are zeroed (they are
+ * never read, but a saved state copies them). */
 static void *alloc_populations(const grid_t *g, size_t esize)
 {
     if (g->stride > (SIZE_MAX - 1024) / (LB_Q * esize)) {
         return NULL; /* more bytes than an address space holds */
     }
     const size_t body = (size_t)LB_Q * g->stride * esize;
-    size_t bytes = body + 2 * POPS_MARGIN_BYTES;
-    bytes = (bytes + 63) / 64 * 64;
-    unsigned char *m = aligned_alloc(64, bytes);
+    unsigned char *m = aligned_alloc(64, (body + 63) / 64 * 64);
     if (m != NULL) {
-        memset(m, 0, POPS_MARGIN_BYTES);
-        memset(m + POPS_MARGIN_BYTES + body, 0, bytes - POPS_MARGIN_BYTES - body);
-        for (int q = 0; q < LB_Q; q++) { /* the cells between ncells and the stride */
-            memset(m + POPS_MARGIN_BYTES + ((size_t)q * g->stride + g->ncells) * esize, 0,
-                   (g->stride - g->ncells) * esize);
+        for (int q = 0; q < LB_Q; q++) {
+            memset(m + ((size_t)q * g->stride + g->ncells) * esize, 0, (g->stride - g->ncells) * esize);
         }
     }
     return m;
@@ -85,7 +77,10 @@ static void init_profile(fluid_t *fl, const scene_t *scene)
 {
     const grid_t *g = &fl->g;
     const double dx = scene->fluid.dx, uv = units_velocity(&fl->units), tau = scene->fluid.tau;
-    const pops_t p0 = fluid_pops(fl); /* the layout state is local (PULL or SWAPPED) */
+    pops_t arrays[2]; /* every array, in the (local: PULL or SWAPPED) layout state */
+    for (int k = 0; k < fluid_arrays(fl); k++) {
+        pops_init(&arrays[k], g, fl->f[k], fl->single, fl->layout);
+    }
 #pragma omp parallel for schedule(static)
     for (int z = 0; z < g->s[2]; z++) {
         for (int y = 0; y < g->s[1]; y++) {
@@ -116,9 +111,7 @@ static void init_profile(fluid_t *fl, const scene_t *scene)
                     }
                     const double v = lb_feq(q, 1.0, ul[0], ul[1], ul[2]) - 3.0 * (tau - 1.0) * lb_w[q] * qs;
                     for (int k = 0; k < fluid_arrays(fl); k++) {
-                        pops_t pk;
-                        pops_init(&pk, g, fl->f[k], fl->single, fl->layout);
-                        pops_write(&pk, q, pops_post_slot(&p0, q, i), v);
+                        pops_write(&arrays[k], q, pops_post_slot(&arrays[k], q, i), v);
                     }
                 }
             }
@@ -150,7 +143,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     fl->single = scene->fluid.precision == PRECISION_SINGLE;
     fl->layout = fl->streaming == STREAMING_TWO_ARRAY ? LAYOUT_PULL : LAYOUT_SWAPPED;
     if (fl->streaming == STREAMING_IN_PLACE && scene->fluid.boundary_scheme == BOUNDARY_MULTIREFLECTION &&
-        scene_total_spheres(scene) > 0 && fabs(1.0 - fl->units.omega_minus) < 0.05) { /* spheres.c SPHERES_MR_DECAY_MIN */
+        scene_total_spheres(scene) > 0 && fabs(1.0 - fl->units.omega_minus) < SPHERES_MR_DECAY_MIN) {
         /* spheres.c recovers the pre-collision n^- as n~^- / (1 - omega_minus) */
         st = log_msg(log, STATUS_ERROR, "fluid",
                      "%s: fluid.boundary_scheme multireflection with fluid.streaming in_place needs omega_minus "
@@ -164,9 +157,8 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     }
     int have = 1;
     for (int k = 0; k < fluid_arrays(fl); k++) {
-        fl->mem[k] = alloc_populations(&fl->g, fluid_value_bytes(fl));
-        fl->f[k] = fl->mem[k] != NULL ? (unsigned char *)fl->mem[k] + POPS_MARGIN_BYTES : NULL;
-        have = have && fl->mem[k] != NULL;
+        fl->f[k] = alloc_populations(&fl->g, fluid_value_bytes(fl));
+        have = have && fl->f[k] != NULL;
     }
     fl->flags = calloc(fl->g.ncells, 1);
     if (fl->path == NULL || !have || fl->flags == NULL) {
@@ -218,8 +210,8 @@ void fluid_free(fluid_t *fl)
     walls_free(&fl->walls);
     spheres_free(&fl->spheres);
     free(fl->flags);
-    free(fl->mem[1]);
-    free(fl->mem[0]);
+    free(fl->f[1]);
+    free(fl->f[0]);
     free(fl->path);
     free(fl);
 }
@@ -401,7 +393,7 @@ void fluid_cells(const fluid_t *fl, int n[3])
 
 size_t fluid_memory_bytes(const fluid_t *fl)
 {
-    return (size_t)fluid_arrays(fl) * ((size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl) + 2 * POPS_MARGIN_BYTES) +
+    return (size_t)fluid_arrays(fl) * (size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl) +
            fl->g.ncells + fl->walls.nlinks * sizeof(ghost_link_t) + fl->walls.ncopies * sizeof(copy_link_t) +
            sizeof *fl;
 }

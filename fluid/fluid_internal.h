@@ -24,7 +24,6 @@ struct fluid {
     units_t units;
     kernel_params_t kp;
     void *f[2];           /* two_array: both; in_place: f[0] only (f[1] NULL); double or float */
-    void *mem[2];         /* allocations: f[k] sits POPS_MARGIN_BYTES into mem[k] */
     int single;           /* fluid.precision single: float storage of f - w_q (layout.h) */
     int cur;
     streaming_t streaming;

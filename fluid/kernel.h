@@ -27,7 +27,7 @@ void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const doub
                            double *restrict dst);
 /* The in-place (AA) step on one array (layout.h): push = 0 the local kernel
  * (from the PUSHED state to SWAPPED), push = 1 the push kernel (SWAPPED to
- * PUSHED). f needs one cell of margin before and after its ncells * 19 values. */
+ * PUSHED). */
 void kernel_in_place(const grid_t *g, const kernel_params_t *p, double *f, int push);
 /* The same with single-precision storage (fluid.precision: single): every
  * value is f_q - w_q as a float, the arithmetic is in double (kernel.c). */

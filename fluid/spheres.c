@@ -17,9 +17,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* |1 - omega_minus| below which multireflection cannot recover the
- * pre-collision populations from the post-collision ones (spheres_fill). */
-#define SPHERES_MR_DECAY_MIN 0.05
 /* links ahead at which spheres_fill prefetches a cell's populations */
 #define FILL_AHEAD 12
 

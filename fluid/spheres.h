@@ -60,6 +60,11 @@ typedef struct {
     double delta;
 } sphere_link_t;
 
+/* |1 - omega_minus| below which multireflection cannot recover the
+ * pre-collision populations from the post-collision ones (spheres_fill); in
+ * place, fluid_create refuses such a scene. */
+#define SPHERES_MR_DECAY_MIN 0.05
+
 typedef struct {
     sphere_link_t *l;
     size_t n, cap;
