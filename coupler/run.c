@@ -838,10 +838,13 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     long next_cp = every > 0.0 ? (long)floor(n0 * h / every + 1e-9 * dt / every) + 1 : 0;
     run_point_t point = {0, nsteps, 0, k_lbm, h, wall0, {restart.wall[0], restart.wall[1], restart.wall[2]}};
     double last_print = wall0;
+    const double wstart = omp_get_wtime() - wall0; /* s: export, load, instantiate, initialise */
+    double wout = 0.0; /* s: reading the outputs of a row (the fluid totals included) and writing rows */
     for (long n = n0;; n++) {
         const double t = n * h;
         const int last = n == nsteps;
         const int do_out = !cp.replay && (last || t >= next_out * oi - 1e-9 * dt);
+        const double w_out0 = omp_get_wtime();
         if (do_out || (cp.n1 >= 0 && n >= cp.n1)) {
             if (read_row(&m) >= STATUS_ERROR) {
                 goto stopped;
@@ -870,6 +873,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
                 next_out++;
             }
         }
+        wout += omp_get_wtime() - w_out0;
         if (cp.n1 >= 0 && n >= cp.n1 && checkpoint_record(&m, &cp, n) != STATUS_OK) {
             goto stopped;
         }
@@ -941,6 +945,8 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     st = output_attr(out, "wall_time_fluid", wf);
     st = status_worst(st, output_attr(out, "wall_time_rigid", wr));
     st = status_worst(st, output_attr(out, "wall_time_master", wall - wf - wr));
+    st = status_worst(st, output_attr(out, "wall_time_output", wout));
+    st = status_worst(st, output_attr(out, "wall_time_startup", wstart));
     st = status_worst(st, output_attr(out, "wall_time_total", wall));
     st = status_worst(st, output_attr(out, "exchange_every", k_lbm));
     st = status_worst(st, output_attr(out, "communication_step", h));
@@ -954,8 +960,8 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     }
     printf("%s: %ld communication steps of %d LBM step%s (h = %.6g s), t = %.6g s, %d x %d x %d cells, tau %.4g\n",
            scene->path, nsteps, k_lbm, k_lbm > 1 ? "s" : "", h, t_end, m.un.n[0], m.un.n[1], m.un.n[2], m.un.tau);
-    printf("  wall time %.3f s: fluid %.3f s (%.1f MLUPS), rigid %.3f s, master and output %.3f s\n", wall, wf, mlups,
-           wr, wall - wf - wr);
+    printf("  wall time %.3f s: fluid %.3f s (%.1f MLUPS), rigid %.3f s, master and output %.3f s (of it rows %.3f s)\n",
+           wall, wf, mlups, wr, wall - wf - wr, wout);
     printf("  FMI calls: fluid %ld %s", cf, jf);
     if (m.rigid != NULL) {
         printf(", rigid %ld %s", cr, jr);

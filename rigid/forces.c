@@ -86,6 +86,7 @@ int rigid_forces(rigid_t *r, const rigid_body_t *bodies, double h_kick, rigid_co
 {
     const rigid_config_t *cfg = &r->cfg;
     int ns = r->nspheres;
+    r->nforces++;
     r->fault = (rigid_fault_t){RIGID_FAULT_NONE, -1, 0, 0.0};
     if (worst != NULL) {
         worst->omega0 = 0.0;

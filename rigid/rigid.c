@@ -367,6 +367,8 @@ void rigid_momentum(const rigid_t *r, double p[3], double l[3])
     }
 }
 
+long rigid_force_evaluations(const rigid_t *r) { return r->nforces; }
+
 double rigid_kinetic_energy(const rigid_t *r)
 {
     double e = 0.0;

@@ -170,6 +170,9 @@ void rigid_get_body(const rigid_t *r, int body, double com[3], double q[4], doub
  * about the world origin, kinetic energy. */
 void rigid_momentum(const rigid_t *r, double p[3], double l[3]);
 double rigid_kinetic_energy(const rigid_t *r);
+/* Evaluations of all forces since rigid_create: Verlet makes one per sub-step,
+ * CVODE one per right-hand-side call (and the Jacobian's finite differences). */
+long rigid_force_evaluations(const rigid_t *r);
 
 size_t rigid_state_size(const rigid_t *r);
 status_t rigid_state_save(const rigid_t *r, void *buf, size_t size);

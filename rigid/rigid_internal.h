@@ -93,6 +93,7 @@ struct rigid {
     double (*sx)[3], (*sv)[3]; /* per sphere centre and velocity (last force evaluation) */
     double *lub_rate;       /* per body: sum of its lubrication damping rates (lubrication.c) */
     rigid_fault_t fault;    /* of the last force evaluation */
+    long nforces;           /* force evaluations so far (diagnostics; not part of the state) */
     rigid_body_t *scratch_bodies;
     const struct rigid_integrator_ops *ops;
     void *integ;            /* integrator private data */

@@ -36,8 +36,8 @@ static drag_stats_t stats_of(const double *e, const double *m, int n)
     return s;
 }
 
-static drag_stats_t run_positions(boundary_scheme_t scheme, double radius, double tau, int np, double *ef,
-                                  double *em, FILE *csv)
+static drag_stats_t run_positions(boundary_scheme_t scheme, collision_t op, double radius, double tau, int np,
+                                  double *ef, double *em, FILE *csv)
 {
     double p[DRAG_MAX_POS][3], e[DRAG_MAX_POS], m[DRAG_MAX_POS];
     np = np > DRAG_MAX_POS ? DRAG_MAX_POS : np;
@@ -46,11 +46,12 @@ static drag_stats_t run_positions(boundary_scheme_t scheme, double radius, doubl
     for (int i = 0; i < np; i++) {
         const double t0 = omp_get_wtime();
         long steps = 0;
-        const harness_drag_t d = harness_array_drag_at(L, radius, tau, COLLISION_TRT, scheme, p[i], &steps);
+        const harness_drag_t d = harness_array_drag_at(L, radius, tau, op, scheme, p[i], &steps);
         e[i] = d.k_flux;
         m[i] = d.k_rel;
         if (csv != NULL) {
-            fprintf(csv, "%s,%g,%g,%d,%.6f,%.6f,%.6f,%.6e,%.6e,%ld,%ld,%.2f\n", scheme_names[scheme], radius, tau, i,
+            fprintf(csv, "%s,%s,%g,%g,%d,%.6f,%.6f,%.6f,%.6e,%.6e,%ld,%ld,%.3f\n", scheme_names[scheme],
+                    op == COLLISION_BGK ? "bgk" : "trt", radius, tau, i,
                     p[i][0], p[i][1], p[i][2], d.k_flux, d.k_rel, d.nsolid, steps, omp_get_wtime() - t0);
             fflush(csv);
         }
@@ -67,7 +68,7 @@ static drag_stats_t run_positions(boundary_scheme_t scheme, double radius, doubl
 drag_stats_t drag_positions(boundary_scheme_t scheme, double radius, double tau, int npositions, double *err_flux,
                             double *err_mem)
 {
-    return run_positions(scheme, radius, tau, npositions, err_flux, err_mem, NULL);
+    return run_positions(scheme, COLLISION_TRT, radius, tau, npositions, err_flux, err_mem, NULL);
 }
 
 static int parse_list(const char *v, double *out, int max)
@@ -99,6 +100,8 @@ int drag_plan_parse(drag_plan_t *plan, int argc, char **argv)
     plan->ntaus = 3;
     memcpy(plan->taus, taus, sizeof taus);
     plan->npositions = 22;
+    plan->ncollisions = 1;
+    plan->collisions[0] = COLLISION_TRT;
     for (int i = 0; i < argc; i++) {
         const char *w = argv[i];
         if (!strncmp(w, "radii=", 6)) {
@@ -107,6 +110,13 @@ int drag_plan_parse(drag_plan_t *plan, int argc, char **argv)
             plan->ntaus = parse_list(w + 5, plan->taus, DRAG_MAX);
         } else if (!strcmp(w, "precision=single") || !strcmp(w, "precision=double")) {
             test_box_precision = w[10] == 's' ? PRECISION_SINGLE : PRECISION_DOUBLE;
+        } else if (!strcmp(w, "collisions=bgk,trt") || !strcmp(w, "collisions=trt,bgk")) {
+            plan->ncollisions = 2;
+            plan->collisions[0] = COLLISION_BGK;
+            plan->collisions[1] = COLLISION_TRT;
+        } else if (!strcmp(w, "collisions=bgk") || !strcmp(w, "collisions=trt")) {
+            plan->ncollisions = 1;
+            plan->collisions[0] = w[11] == 'b' ? COLLISION_BGK : COLLISION_TRT;
         } else if (!strncmp(w, "positions=", 10)) {
             plan->npositions = atoi(w + 10);
         } else if (!strncmp(w, "schemes=", 8)) {
@@ -153,29 +163,31 @@ int drag_report(const char *dir, const drag_plan_t *plan)
         }
         return 1;
     }
-    fprintf(csv, "scheme,radius,tau,position,px,py,pz,err_flux,err_mem,solid_cells,steps,seconds\n");
+    fprintf(csv, "scheme,collision,radius,tau,position,px,py,pz,err_flux,err_mem,solid_cells,steps,seconds\n");
     FILE *outs[2] = {stdout, txt};
     for (int o = 0; o < 2; o++) {
         fprintf(outs[o],
                 "# drag of a fixed sphere in a simple cubic array, D/L = 1/2 (Sangani & Acrivos 1982, K = 2.84202),\n"
-                "# TRT Lambda 3/16, %d centre positions in a cell (corner, centre, %d random, seed %llu);\n"
+                "# TRT Lambda 3/16 (or BGK), %d centre positions in a cell (corner, centre, %d random, seed %llu);\n"
                 "# K/K_SA - 1 in %%: flux definition K = f L^3/(6 pi mu a U) (mean, worst |.|, max-min), and\n"
                 "# momentum exchange K = (F + f 4/3 pi a^3)/(6 pi mu a U) beside it\n",
                 plan->npositions, plan->npositions - 2, DRAG_SEED);
-        fprintf(outs[o], "%-16s %6s %5s %9s %9s %9s %9s %9s %9s %8s\n", "scheme", "radius", "tau", "mean", "worst",
+        fprintf(outs[o], "%-16s %-4s %6s %5s %9s %9s %9s %9s %9s %9s %8s\n", "scheme", "op", "radius", "tau", "mean", "worst",
                 "spread", "mean_m", "worst_m", "spread_m", "seconds");
     }
     for (int r = 0; r < plan->nradii; r++) {
         for (int t = 0; t < plan->ntaus; t++) {
-            for (int k = 0; k < plan->nschemes; k++) {
+            for (int k = 0; k < plan->nschemes * plan->ncollisions; k++) {
+                const boundary_scheme_t scheme = plan->schemes[k / plan->ncollisions];
+                const collision_t op = plan->collisions[k % plan->ncollisions];
                 const double t0 = omp_get_wtime();
                 const drag_stats_t s =
-                    run_positions(plan->schemes[k], plan->radii[r], plan->taus[t], plan->npositions, NULL, NULL, csv);
+                    run_positions(scheme, op, plan->radii[r], plan->taus[t], plan->npositions, NULL, NULL, csv);
                 for (int o = 0; o < 2; o++) {
-                    fprintf(outs[o], "%-16s %6g %5g %+9.3f %9.3f %9.3f %+9.3f %9.3f %9.3f %8.1f\n",
-                            scheme_names[plan->schemes[k]], plan->radii[r], plan->taus[t], 100 * s.mean, 100 * s.worst,
-                            100 * s.spread, 100 * s.mean_m, 100 * s.worst_m, 100 * s.spread_m,
-                            omp_get_wtime() - t0);
+                    fprintf(outs[o], "%-16s %-4s %6g %5g %+9.3f %9.3f %9.3f %+9.3f %9.3f %9.3f %8.1f\n",
+                            scheme_names[scheme], op == COLLISION_BGK ? "bgk" : "trt", plan->radii[r], plan->taus[t],
+                            100 * s.mean, 100 * s.worst, 100 * s.spread, 100 * s.mean_m, 100 * s.worst_m,
+                            100 * s.spread_m, omp_get_wtime() - t0);
                     fflush(outs[o]);
                 }
             }
@@ -183,4 +195,42 @@ int drag_report(const char *dir, const drag_plan_t *plan)
     }
     fclose(csv);
     return fclose(txt) == 0 ? 0 : 1;
+}
+
+int rotation_report(const char *dir, const drag_plan_t *plan)
+{
+    char path[512];
+    snprintf(path, sizeof path, "%s/rotation.csv", dir);
+    FILE *csv = fopen(path, "w");
+    if (csv == NULL) {
+        fprintf(stderr, "sphere_report: cannot write %s (does the folder exist?)\n", path);
+        return 1;
+    }
+    fprintf(csv, "scheme,collision,radius,tau,position,px,py,pz,err_torque,steps,seconds\n");
+    printf("# torque on a sphere rotating in a simple cubic array, L = 4a, against Hofmann et al. (1999), %%\n");
+    double p[DRAG_MAX_POS][3];
+    const int np = plan->npositions > DRAG_MAX_POS ? DRAG_MAX_POS : plan->npositions;
+    harness_cell_positions(np, DRAG_SEED, p);
+    for (int r = 0; r < plan->nradii; r++) {
+        for (int t = 0; t < plan->ntaus; t++) {
+            for (int k = 0; k < plan->nschemes * plan->ncollisions; k++) {
+                const boundary_scheme_t scheme = plan->schemes[k / plan->ncollisions];
+                const collision_t op = plan->collisions[k % plan->ncollisions];
+                for (int i = 0; i < np; i++) {
+                    const double t0 = omp_get_wtime();
+                    long steps = 0;
+                    const int L = (int)lround(4.0 * plan->radii[r]);
+                    const double e = harness_rotating_torque(L, plan->radii[r], plan->taus[t], op, scheme, p[i], &steps);
+                    const double secs = omp_get_wtime() - t0;
+                    fprintf(csv, "%s,%s,%g,%g,%d,%.6f,%.6f,%.6f,%.6e,%ld,%.3f\n", scheme_names[scheme],
+                            op == COLLISION_BGK ? "bgk" : "trt", plan->radii[r], plan->taus[t], i, p[i][0], p[i][1],
+                            p[i][2], e, steps, secs);
+                    fflush(csv);
+                    printf("%-16s %-4s r=%-4g tau=%-4g pos %2d  %+8.3f %%  %6ld steps %7.2f s\n", scheme_names[scheme],
+                           op == COLLISION_BGK ? "bgk" : "trt", plan->radii[r], plan->taus[t], i, 100 * e, steps, secs);
+                }
+            }
+        }
+    }
+    return fclose(csv) == 0 ? 0 : 1;
 }

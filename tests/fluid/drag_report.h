@@ -9,7 +9,8 @@
 #define DRAG_MAX 8
 
 typedef struct {
-    int nschemes, nradii, ntaus, npositions;
+    int nschemes, nradii, ntaus, npositions, ncollisions;
+    collision_t collisions[2];
     boundary_scheme_t schemes[DRAG_MAX];
     double radii[DRAG_MAX], taus[DRAG_MAX];
 } drag_plan_t;
@@ -35,6 +36,10 @@ int drag_report(const char *dir, const drag_plan_t *plan);
 /* Fills a plan from "key=value" words: schemes=cli,multireflection radii=4,8
  * taus=0.6,1,1.5 positions=22; defaults: every scheme, radii 3 4 5 6 8, taus 0.6 1 1.5,
  * 22 positions (corner, centre, 20 random). 0 on success, else the bad word's index + 1. */
+/* The rotating sphere (harness_rotating_torque, L = 4a) over the same plan:
+ * DIR/rotation.csv, one row per run (torque error, steps, seconds). */
+int rotation_report(const char *dir, const drag_plan_t *plan);
+
 int drag_plan_parse(drag_plan_t *plan, int argc, char **argv);
 
 #endif

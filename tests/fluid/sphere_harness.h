@@ -27,6 +27,13 @@ harness_drag_t harness_array_drag(int L, double a, double tau, collision_t op, b
 harness_drag_t harness_array_drag_at(int L, double a, double tau, collision_t op, boundary_scheme_t scheme,
                                      const double p[3], long *steps);
 
+/* A sphere of radius a centred at a cell corner + p (cells) in a periodic L^3
+ * box, rotating about z at a fixed rate in fluid at rest, run until the torque
+ * changes by less than 1e-7 per 100 steps: its torque / Hofmann et al. (1999)
+ * (simple cubic array) - 1; steps = steps run. */
+double harness_rotating_torque(int L, double a, double tau, collision_t op, boundary_scheme_t scheme,
+                               const double p[3], long *steps);
+
 /* n positions of a sphere centre within a cell, as offsets from a cell corner
  * in [0, 1)^3: the corner, the cell centre, then n - 2 drawn uniformly with a
  * fixed generator (splitmix64 from seed), so that every run sees the same set. */

@@ -2,7 +2,8 @@
  *
  * `sphere_report drag DIR [...]` (`make drag-report`) writes the position study
  * of the drag of a fixed sphere in a simple cubic array (drag_report.c) as
- * DIR/drag.csv and DIR/drag.txt. For each boundary scheme x force variant x
+ * DIR/drag.csv and DIR/drag.txt; `sphere_report rotation DIR [...]` the torque
+ * on a rotating sphere over the same plan as DIR/rotation.csv. For each boundary scheme x force variant x
  * refill scheme x {BGK, TRT} at sphere radius 5 and 8 cells the other modes print:
  *   fluctuation std/mean of the drag on a sphere moved through a periodic
  *               box at constant velocity against a body-force driven flow
@@ -99,13 +100,13 @@ int main(int argc, char **argv)
     const char *what = argc > 1 ? argv[1] : "all";
     double rad[8] = {5.0, 8.0};
     int nr = 2;
-    if (argc > 2 && strcmp(what, "drag")) {
+    if (argc > 2 && strcmp(what, "drag") && strcmp(what, "rotation")) {
         nr = 0;
         for (int i = 2; i < argc && nr < 8; i++) {
             rad[nr++] = atof(argv[i]);
         }
     }
-    const int do_drag = !strcmp(what, "drag");
+    const int do_drag = !strcmp(what, "drag"), do_rotation = !strcmp(what, "rotation");
     const int do_moving = !strcmp(what, "all") || !strcmp(what, "moving");
     const int do_cost = !strcmp(what, "all") || !strcmp(what, "cost");
     if (!strcmp(what, "all") || !strcmp(what, "approach")) {
@@ -120,18 +121,21 @@ int main(int argc, char **argv)
     static const char *sname[] = {"bounce_back", "yu", "cli", "quadratic", "multireflection"};
     static const char *cname[] = {"bgk", "trt"};
     const double *radii = rad;
-    if (do_drag) {
-        /* sphere_report drag DIR [schemes=.. radii=.. taus=.. positions=.. precision=single|double] (drag_report.h) */
+    if (do_drag || do_rotation) {
+        /* sphere_report drag|rotation DIR [schemes=.. collisions=bgk,trt radii=.. taus=.. positions=..
+         * precision=single|double] (drag_report.h) */
         drag_plan_t plan;
         const int bad = drag_plan_parse(&plan, argc > 3 ? argc - 3 : 0, argv + 3);
         if (bad != 0) {
-            fprintf(stderr, "sphere_report: bad drag option '%s' (schemes=cli,multireflection,... radii=4,8 "
-                            "taus=0.6,1,1.5 positions=N, N from 2 to 256)\n", argv[3 + bad - 1]);
+            fprintf(stderr, "sphere_report: bad %s option '%s' (schemes=cli,multireflection,... collisions=bgk,trt "
+                            "radii=4,8 taus=0.6,1,1.5 positions=N, N from 2 to 256)\n", what, argv[3 + bad - 1]);
             return 2;
         }
-        if (drag_report(argc > 2 ? argv[2] : "build/report", &plan) != 0) {
+        const char *dir = argc > 2 ? argv[2] : "build/report";
+        if ((do_drag ? drag_report(dir, &plan) : rotation_report(dir, &plan)) != 0) {
             return 1;
         }
+        return 0;
     }
     if (do_moving) {
     printf("\n# drag fluctuation (std/mean) of a sphere moving through a periodic box, 3000 steps, tau 0.8\n");
