@@ -16,10 +16,13 @@ Its verdict comes from the coupler's messages only, never from the output file:
 
 A message that ends in a remedy ("...: reduce dt (fluid.tau) or the velocity", "Remedies: ...",
 "; use more substeps or the cvode BDF integrator") is split into cause and remedy, the remedy is
-translated into a change of the case (`REMEDIES`: a `--set` or a case parameter, the options in
-the order the message gives them, the first one that changes the case) and the case is run again
-with it. A message without a remedy gets the README's advice for the limits of the lattice (more
-cells per radius at the same Reynolds number), marked as not offered by the program.
+translated into changes of the case (`REMEDIES`: a `--set` or a case parameter per option, in the
+order the message gives them, skipping options that would not change the case) and the case is
+run again with each in turn until one runs stably (at most three). A message without a remedy
+gets the README's advice for the limits of the lattice (more cells per radius at the same
+Reynolds number), marked as not offered by the program. Quick mode reruns one case per class of
+failure (group, verdict, cause, remedy, control); the full map every unstable case, except that
+lattice-limit cases (the control fails too) share one rerun per radius, tau and velocity.
 
 The free sphere (as in Nguyen & Ladd 2002's tests of the added-mass instability, and the
 Sangani & Acrivos 1982 periodic array used elsewhere in the tests): one sphere of radius a cells
@@ -375,12 +378,14 @@ def _contact_model(case, remedy, msg):
 
 
 def _time_step(case, remedy, msg):
-    """Half the step at the same physics (tau - 1/2 halves); twice the steps."""
+    """Half the step at the same physics (tau - 1/2 halves; twice the steps), or twice the step
+    when the words before the option ask for more (raise, increase, larger, higher tau)."""
     tau = float(_get(case, "fluid.tau", case.p.get("tau", WALL_TAU)))
-    new = 0.5 + 0.5 * (tau - 0.5)
+    up = re.search(r"\b(raise|increase|larger|higher|bigger)\b", remedy) is not None
+    new = 0.5 + (2.0 if up else 0.5) * (tau - 0.5)
     _set(case, "fluid.tau", repr(new))
-    case.steps *= 2
-    return "fluid.tau=%.6g (half the step)" % new
+    case.steps = max(1, case.steps // 2) if up else case.steps * 2
+    return "fluid.tau=%.6g (%s the step)" % (new, "twice" if up else "half")
 
 
 def _velocity(case, remedy, msg):
@@ -421,9 +426,11 @@ def remedy_options(case, remedy, message):
         return [("(none offered; README:) " + _refine(new, "", message), new)]
     found = sorted((m.start(), i) for i, (pat, fn) in enumerate(REMEDIES) for m in [re.search(pat, remedy)] if m)
     out = []
-    for _, i in found:
+    for pos, i in found:
         trial = Case(case.group, case.p, case.sets, case.steps)
-        change = REMEDIES[i][1](trial, remedy, message)
+        # the option's own words: from the last separator before it (its verb) to its end
+        start = max(remedy.rfind(sep, 0, pos) for sep in (",", ";", " or ", "Remedies:"))
+        change = REMEDIES[i][1](trial, remedy[max(0, start):pos + 40], message)
         if change:
             out.append((change, trial))
     return out
@@ -716,8 +723,9 @@ def markdown(cases, figures, quick, wall):
         "lattice's as tau -> 1/2), lattice velocity x tau at density ratio 2, radius 3 (the lattice's limit: "
         "cell Reynolds number u/nu and Mach number, for a particle the coupling handles), radius x density ratio "
         "at tau 0.6, u = 0.05 (how small and how light a sphere may be). The flow's velocity is the sphere's "
-        "relative to the fluid at rest far from it; a uniform flow past it would be the same by Galilean "
-        "invariance." % (free[0].steps if free else 0))
+        "relative to the fluid at rest far from it: the speed relative to the grid is what the lattice "
+        "limits, and the sphere's sets it here (a flow past a fixed sphere is the same problem in the sphere's "
+        "frame, up to the lattice's lack of Galilean invariance at finite Mach number)." % (free[0].steps if free else 0))
     L.append("")
     for f in figures:
         L.append("![%s](%s)" % (f[:-4].replace("_", " "), f))
@@ -820,8 +828,9 @@ def conclusion(cases):
                     min(c.p["ratio"] for c in rt), max(c.p["ratio"] for c in rt), "/".join("%g" % t for t in taus)))
         coup = [c for c in bad if c.control == "coupling"]
         if coup:
-            s.append("%d default case(s) fail where the prescribed motion runs, a limit of the coupling: %s." % (
-                len(coup), "; ".join(_where(c) for c in coup[:4])))
+            s.append("%d default case(s) fail where the motion prescribed at the intended speed runs (a limit of "
+                     "the coupling, or a free sphere faster than intended): %s." % (
+                         len(coup), "; ".join("%s (%s)" % (_where(c), label(c.cause)) for c in coup[:4])))
     for k in ("explicit", "explicit + averaging", "implicit, no averaging", "implicit"):
         sub = [c for c in free if c.p["coupling"] == k]
         cb = [c for c in sub if c.verdict != "stable" and c.control != "fluid limit"]
@@ -844,9 +853,9 @@ def conclusion(cases):
             "; the drop runs down to a contact time of %g fluid steps" % min(tcs) if tcs else "",
             (" (not: " + ", ".join(sorted({"%s %s" % (c.group, c.p["variant"]) for c in badw})) + ")")
             if badw else ""))
-    if any(c.group != "free" and c.p.get("integrator") == "verlet" and c.verdict != "stable" for c in walls):
-        s.append("A contact stiffer than Verlet's limit is refused with a message, never integrated into an energy "
-                 "gain: take the sub-steps it names or CVODE BDF.")
+    if any(c.p.get("integrator") == "verlet" and "h*omega" == label(c.cause) for c in walls):
+        s.append("Here a contact stiffer than Verlet's limit was refused with a message at its first step "
+                 "instead of being integrated: take the sub-steps it names or CVODE BDF.")
     reps = {}
     for c in cases:
         if c.verdict != "stable" and c.rerun_of is not None:
@@ -854,12 +863,28 @@ def conclusion(cases):
     if reps:
         good = [c for c in reps.values() if c.chain and c.chain[-1][1][0] == "stable"]
         first = [c for c in reps.values() if c.chain and c.chain[0][1][0] == "stable"]
-        failed = sorted({label(c.cause.split(" (after")[0]) for c in reps.values() if c not in good})
         s.append("The remedies the messages offer: the first option made %d of %d rerun cases run stably, one of "
-                 "the options %d%s." % (len(first), len(reps), len(good),
-                                         ("; they did not help with: %s (see the table: these are mostly lattice "
-                                          "limits, where only a finer grid at the same Reynolds number helps)" %
-                                          ", ".join(failed)) if failed else ""))
+                 "the options %d." % (len(first), len(reps), len(good)))
+        bad = [c for c in reps.values() if c not in good]
+        lattice = [c for c in bad if c.control == "fluid limit"]
+        if lattice:
+            s.append("They did not help %d lattice-limit case(s) (%s): there only a finer grid at the same "
+                     "Reynolds number, by more than the factor 2 tried here, or a lower Reynolds number helps." % (
+                         len(lattice), ", ".join(sorted({label(c.cause.split(" (after")[0]) for c in lattice}))))
+        coupled = [c for c in bad if c.group.startswith("free") and c.control == "coupling"]
+        if coupled:
+            fixed = [c for c in coupled if any(x.group.startswith("free") and x.p["coupling"] == "auto" and
+                                               x.verdict == "stable" and all(x.p[k] == c.p[k] for k in
+                                                                             ("radius", "ratio", "tau", "u"))
+                                               for x in cases)]
+            s.append("Nor %d coupling failure(s) whose message blames the step or the speed (%s) while the "
+                     "prescribed motion runs; %d of them run stably with the default coupling: that is the remedy "
+                     "such a message should name." % (
+                         len(coupled), ", ".join(sorted({label(c.cause.split(" (after")[0]) for c in coupled})),
+                         len(fixed)))
+        other = [c for c in bad if c not in lattice and c not in coupled]
+        if other:
+            s.append("Not fixed either: %s." % "; ".join("%s (%s)" % (_where(c), label(c.cause)) for c in other[:4]))
     return " ".join(s)
 
 
