@@ -91,3 +91,27 @@ def test_verdict_parsing():
                                   "use a longer contact time")
     assert sm.parse_outcome(-11, "")[0] == "crashed"
     assert sm.parse_outcome(1, "")[0] == "crashed"
+
+
+def test_map_writes_report_files(tmp_path, monkeypatch):
+    """run_map's bookkeeping, figures and text on made-up outcomes (no coupler runs): every
+    figure and the CSV it names exist, and the section has its table and its conclusion."""
+    def fake(text, sets, steps, coupler, timeout):
+        if "tau: 0.5001" in text:
+            return "detected", "numerical trouble at step 200: non-positive density", "", 0.0, ""
+        if "contact_time: 0.0001" in text and "integrator: verlet" in text and not sets[-1].startswith("rigid.sub"):
+            return ("detected", "verlet: unstable contact ... is 31.4, limit 1",
+                    "use more substeps or the cvode BDF integrator", 0.0, "")
+        if "rigid.coupling=explicit" in sets and "density: 100.0" in text:
+            return ("detected", "sphere 0 moves 2 cells in one step at step 5 (after a period-2 warning)",
+                    "reduce dt (fluid.tau) or the velocity", 0.0, "")
+        return "stable", "", "", 0.0, ""
+    monkeypatch.setattr(sm, "run_text", fake)
+    r = sm.run_map(str(tmp_path), quick=True, coupler="unused", jobs=2)
+    for name in r["figures"] + r["csv"]:
+        assert (tmp_path / name).stat().st_size > 0, name
+    md = r["markdown"]
+    assert md.startswith("## 4. Stability map") and "| group | verdict |" in md and "What a user should conclude" in md
+    assert all("(%s)" % f in md for f in r["figures"])
+    assert "rigid.substeps=40: stable" in md and "| drop | detected |" in md
+    assert "(none offered; README:) fluid.dx / 2" in md and "velocity / 2: detected (moves)" in md
