@@ -24,8 +24,8 @@ Reynolds number), marked as not offered by the program. Quick mode reruns one ca
 failure (group, verdict, cause, remedy, control); the full map every unstable case, except that
 lattice-limit cases (the control fails too) share one rerun per radius, tau and velocity.
 
-The free sphere (as in Nguyen & Ladd 2002's tests of the added-mass instability, and the
-Sangani & Acrivos 1982 periodic array used elsewhere in the tests): one sphere of radius a cells
+The free sphere (the set-up of the README's stability table and of the periodic settling test
+against Sangani & Acrivos 1982): one sphere of radius a cells
 in a periodic box of 8 a, started at the requested lattice velocity u and driven by gravity that
 makes u its terminal velocity (Stokes drag, Sangani-Acrivos factor for D/L = 1/4, Schiller &
 Naumann 1933 Reynolds correction); a counter body force on the fluid keeps the system as a whole
@@ -36,8 +36,9 @@ again as a control with the same motion prescribed (no coupling at all): when th
 fails too, the limit is the lattice's at that tau and speed ("fluid limit"), not the coupling's.
 
 Slices (not the full product, which is ~900 cases per coupling):
-- density ratio x tau at radius 3 cells, u = 0.05: the coupling's limit (light particles,
-  Nguyen & Ladd's added-mass instability) against the lattice's (tau -> 1/2);
+- density ratio x tau at radius 3 cells, u = 0.05: the coupling's limit (the added-mass
+  instability of explicitly coupled light particles, which Ladd & Verberg, J. Stat. Phys. 104
+  (2001) 1191, remove with an implicit particle update) against the lattice's (tau -> 1/2);
 - lattice velocity x tau at density ratio 2, radius 3: the lattice's limit (cell Reynolds number
   u / nu, Mach number) for a particle that the coupling handles;
 - radius x density ratio at tau 0.6, u = 0.05: how small and how light a sphere can be.
@@ -51,7 +52,9 @@ run), for Verlet and CVODE BDF:
 - two spheres (ratio 2, radius 3) approaching each other at 0.05 each from a gap of 2 cells to
   below one cell: contacts with lubrication (the default), without it, and no contact model.
 Every case for the default coupling (`rigid.coupling: auto`) and the alternatives: implicit and
-explicit, each with and without `fluid.force_averaging` (quick mode: fewer).
+explicit, each with and without `fluid.force_averaging`; 600 steps (contacts 400). Quick mode:
+auto and explicit only (auto only for velocity x tau), six density ratios in the radius slice,
+contact times 10, 1, 0.1 steps, 300 steps (contacts 200).
 
 Usage: tools/stability_map.py OUTDIR [--quick] [--jobs N] [--coupler PATH]
 writes OUTDIR/stability.csv, OUTDIR/stability_*.png and OUTDIR/stability.md; `run_map` is the

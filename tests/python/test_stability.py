@@ -10,11 +10,12 @@ verdicts are known, asserted from the coupler's messages exactly as the map read
   the limit 1, rigid/integrator_verlet.c) is refused, and the remedy the message offers (more
   sub-steps) or CVODE BDF runs it.
 - The paper's explicit coupling of a light sphere (radius 3, density ratio 0.3) is not stable
-  (the added-mass instability; Nguyen & Ladd 2002 discuss it for light particles) where the
-  default is.
+  (the added-mass instability of explicitly coupled light particles; Ladd & Verberg, J. Stat.
+  Phys. 104 (2001) 1191) where the default is.
 - The verdict parsing itself on messages of each kind, including a crash without a message.
 
-About 10 s on 2 cores (each run a few hundred steps on at most 24^3 cells).
+About 10 s on 2 cores (each run a few hundred steps on at most 24^3 cells; the last test draws
+the map's figures from made-up outcomes).
 """
 import sys
 
