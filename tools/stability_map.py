@@ -821,9 +821,10 @@ def conclusion(cases):
                  "not of the coupling." % (len(auto) - len(bad), len(auto), len(bad), len(fl)))
         vt = [c for c in auto if c.group == "free:velocity x tau"]
         if vt:
-            s.append("The largest lattice velocity that runs stably at each tau (density ratio 2, radius 3, "
-                     "defaults): %s. Below that, refine the grid (more cells per radius at the same Reynolds "
-                     "number) rather than lower tau." % _limits(vt, "tau", "u"))
+            s.append("The largest lattice velocity that runs stably for %d steps at each tau (density ratio 2, "
+                     "radius 3, defaults; a longer run may find less): %s. Below that, refine the grid (more cells "
+                     "per radius at the same Reynolds number) rather than lower tau." % (
+                         vt[0].steps, _limits(vt, "tau", "u")))
         rt = [c for c in auto if c.group == "free:ratio x tau"]
         if rt:
             taus = sorted({c.p["tau"] for c in rt if all(x.verdict == "stable" for x in rt if x.p["tau"] == c.p["tau"])})
@@ -858,7 +859,7 @@ def conclusion(cases):
             (" (not: " + ", ".join(sorted({"%s %s" % (c.group, c.p["variant"]) for c in badw})) + ")")
             if badw else ""))
     if any(c.p.get("integrator") == "verlet" and "h*omega" == label(c.cause) for c in walls):
-        s.append("Here a contact stiffer than Verlet's limit was refused with a message at its first step "
+        s.append("Here a contact stiffer than Verlet's limit was refused with a message as soon as it began, "
                  "instead of being integrated: take the sub-steps it names or CVODE BDF.")
     reps = {}
     for c in cases:
