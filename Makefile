@@ -44,7 +44,7 @@ TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattic
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
 
-.PHONY: all run test validate bench report drag-report fmus clean deps fuzz
+.PHONY: all run test validate bench report approach-report drag-report fmus clean deps fuzz
 all: $(BUILD)/coupler $(BUILD)/run_tests $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so
 
 deps:
@@ -92,11 +92,17 @@ $(BUILD)/sphere_report: $(LIB_OBJ) $(call obj,tests/fluid/sphere_report.c tests/
                          tests/fluid/drag_report.c tests/fluid/approach_harness.c tests/fluid/test_util.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
 
+# build/report/report.md with its figures and CSV (tools/report.py, README
+# "Report"): under an hour on 2 cores; QUICK=1 the same from shorter sweeps in
+# under 10 minutes. The close-approach curves: `make approach-report`.
 report: deps
 	@$(MAKE) --no-print-directory all $(BUILD)/rigid_report $(BUILD)/sphere_report
-	$(BUILD)/rigid_report
+	$(PY) tools/report.py $(BUILD)/report $(if $(QUICK),--quick,)
+
+approach-report: deps
+	@$(MAKE) --no-print-directory $(BUILD)/sphere_report
 	mkdir -p $(BUILD)/report
-	$(BUILD)/sphere_report
+	$(BUILD)/sphere_report approach $(BUILD)/report
 	$(PY) tools/plot_approach.py $(BUILD)/report
 
 # Drag of a fixed sphere at many positions in its cell (issue 11), every
