@@ -562,7 +562,7 @@ static status_t trouble_report(const fluid_t *fl, double key, double mach_limit)
                                "(fluid.collision: trt), more cells (fluid.dx), or lower the flow speed";
     return log_msg(&fl->log, STATUS_ERROR, "fluid",
                    "%s: numerical trouble at step %ld (t = %.6g s), cell (%d, %d, %d) at (%.4g, %.4g, %.4g) m: "
-                   "%s (density %.6g, |u| = %.4g lattice = Mach %.3g, fluid.mach_limit %.3g); %s",
+                   "%s (density %.6g, |u| = %.4g lattice = Mach %.4g, fluid.mach_limit %.4g); %s",
                    fl->path, fl->step, fluid_time(fl), x - 1, y - 1, z - 1, (x - 0.5) * dx, (y - 0.5) * dx,
                    (z - 0.5) * dx, TROUBLE_CAUSES[cause], r, umag, umag / sqrt(LB_CS2), mach_limit, remedy);
 }
