@@ -752,7 +752,14 @@ static fmi2Status get_values(fmi2Component c, const char *fn, fmi_type_t type, c
     }
     for (size_t i = 0; i < nvr && in->lazy_stale && in->comp != NULL; i++) {
         if (in->vars.v[vr[i]].lazy) {
-            MODEL->lazy_outputs(in->comp, &in->vars, in->values);
+            const status_t lst = MODEL->lazy_outputs(in->comp, &in->vars, in->values);
+            if (lst >= STATUS_ERROR) {
+                /* the component found its state broken (e.g. NaN in the
+                 * fluid): no value is handed out, the instance stops */
+                in->state = lst == STATUS_FATAL ? S_FATAL : S_ERROR;
+                return report(in, lst, fn, "the %s outputs at t = %.17g s cannot be computed (see the message "
+                              "above); restore a saved FMU state or reset", MODEL->identifier, in->t);
+            }
             in->lazy_stale = 0;
         }
     }

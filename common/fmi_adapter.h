@@ -76,8 +76,10 @@ typedef struct {
     status_t (*step)(void *comp, const fmi_vars_t *vars, const double *values, double t, double h, const log_t *log);
     /* Writes every output into values[]. */
     void (*outputs)(void *comp, const fmi_vars_t *vars, double *values);
-    /* Optional: computes the outputs marked lazy (NULL: the model has none). */
-    void (*lazy_outputs)(void *comp, const fmi_vars_t *vars, double *values);
+    /* Optional: computes the outputs marked lazy (NULL: the model has none).
+     * STATUS_ERROR (logged) when they cannot be trusted (numerical trouble):
+     * the get fails and the instance goes to the Error state. */
+    status_t (*lazy_outputs)(void *comp, const fmi_vars_t *vars, double *values);
     /* Optional: a String parameter's value, called right after create (NULL:
      * the model has no String variables). */
     status_t (*set_string)(void *comp, const fmi_var_t *var, const char *value, const log_t *log);

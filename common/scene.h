@@ -72,6 +72,7 @@ typedef struct {
     streaming_t streaming;
     precision_t precision;
     int force_averaging;        /* average force over two steps: 1, 0, or -1 = not given (per body, common/coupling.h) */
+    double mach_limit;          /* a fluid cell faster than this Mach number stops the run (fluid_check) */
 } scene_fluid_t;
 
 typedef enum { MOTION_FREE, MOTION_FIXED, MOTION_PRESCRIBED } motion_t;
@@ -175,6 +176,10 @@ const char *face_type_name(face_type_t t);
  * is kept exact and `coupler check` warns. A given fluid.dt is used as given
  * (check warns when it is not whole ns). README "FMUs", models/README.md. */
 #define SCENE_DT_ROUND_MAX 1e-2
+/* Default of fluid.mach_limit: Mach 0.3 = |u| 0.173 lattice units, where the
+ * compressibility error of the lattice (O(Ma^2)) reaches ~10% and BGK/TRT
+ * start to lose stability; well above the Mach ~0.1 a scene aims for. */
+#define SCENE_MACH_LIMIT_DEFAULT 0.3
 /* Whether t (s) is a whole number of nanoseconds within 1e-9 relative (the
  * FMUs' tolerance on communication points); *ns the nearest count (may be NULL). */
 int scene_whole_ns(double t, long long *ns);

@@ -230,10 +230,13 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
     f->streaming = r->streaming ? *r->streaming : STREAMING_IN_PLACE;
     f->precision = r->precision ? *r->precision : PRECISION_DOUBLE;
     f->force_averaging = r->force_averaging ? (*r->force_averaging ? 1 : 0) : -1; /* -1: per body (coupling.h) */
+    f->mach_limit = opt(r->mach_limit, SCENE_MACH_LIMIT_DEFAULT);
 
     bool nu_ok = scene_check_range(c, "fluid.viscosity", f->viscosity, 0, INFINITY, LO_OPEN);
     scene_check_range(c, "fluid.density", f->density, 0, INFINITY, LO_OPEN);
     scene_check_range(c, "fluid.magic", f->magic, 0, INFINITY, LO_OPEN);
+    /* above Mach 1 the lattice (c = 1 cell per step, c_s = 1/sqrt(3)) cannot carry the flow at all */
+    scene_check_range(c, "fluid.mach_limit", f->mach_limit, 0, 1, LO_OPEN);
     if (r->magic != NULL && f->collision == COLLISION_BGK) {
         scene_report_warn(c, "fluid.magic", "= %s: ignored with fluid.collision = bgk (used by trt only)",
                           fmt_num(f->magic).s);

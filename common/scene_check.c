@@ -172,10 +172,12 @@ void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok)
 }
 
 /* A sphere surface point must not move more than half a cell per LBM step
- * (the link lists and refill assume it). The body's reference point is the
+ * (the link lists and refill assume it; the fluid refuses a larger move of a
+ * sphere, fluid_set_sphere). The body's reference point is the
  * volume-weighted centroid of its spheres (overlaps ignored): an estimate,
- * good enough for a start-up check. Prescribed motion is known to keep that
- * speed, so it is an error; free motion is only a warning. */
+ * good enough for a start-up check. An error for prescribed motion (it keeps
+ * that speed) and for the initial velocity of a free body (its first step
+ * would be refused). */
 void scene_check_speeds(ctx_t *c, const scene_t *s)
 {
     char key[SCENE_KEY_MAX];
@@ -206,11 +208,12 @@ void scene_check_speeds(ctx_t *c, const scene_t *s)
         double speed = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) * reach;
         if (!(speed <= limit)) {
             snprintf(key, sizeof key, "bodies.%d.velocity", i);
-            scene_report(c, b->motion == MOTION_PRESCRIBED ? STATUS_ERROR : STATUS_WARNING, key,
-                         "= %s with angular velocity %s moves a surface point up to %s m/s = %s cells per "
-                         "step; allowed: at most 0.5 cells per step = %s m/s (fluid.dx / (2 fluid.dt))",
-                         fmt_vec(v, 3).s, fmt_vec(w, 3).s, fmt_num(speed).s,
-                         fmt_num(speed * s->fluid.dt / s->fluid.dx).s, fmt_num(limit).s);
+            scene_report_bad(c, key,
+                             "= %s with angular velocity %s moves a surface point up to %s m/s = %s cells per "
+                             "step; allowed: at most 0.5 cells per step = %s m/s (fluid.dx / (2 fluid.dt)): a "
+                             "smaller fluid.dt (fluid.tau closer to 0.5), a smaller fluid.dx or a lower velocity",
+                             fmt_vec(v, 3).s, fmt_vec(w, 3).s, fmt_num(speed).s,
+                             fmt_num(speed * s->fluid.dt / s->fluid.dx).s, fmt_num(limit).s);
         }
     }
 }

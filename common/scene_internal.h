@@ -70,6 +70,7 @@ typedef struct {
     streaming_t *streaming;
     precision_t *precision;
     int *force_averaging;
+    double *mach_limit;
 } raw_fluid_t;
 
 typedef struct {

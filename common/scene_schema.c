@@ -108,6 +108,7 @@ static const cyaml_schema_field_t FLUID_FIELDS[] = {
     ENUM_FIELD("force_averaging", raw_fluid_t, force_averaging, BOOL_NAMES),
     ENUM_FIELD("streaming", raw_fluid_t, streaming, STREAMING_NAMES),
     ENUM_FIELD("precision", raw_fluid_t, precision, PRECISION_NAMES),
+    CYAML_FIELD_FLOAT_PTR("mach_limit", OPT, raw_fluid_t, mach_limit),
     CYAML_FIELD_END,
 };
 

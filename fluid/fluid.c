@@ -505,12 +505,75 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
     momentum[2] = jz;
 }
 
-enum { DIAG_NV = 9 }; /* mass, momentum 3, kinetic, umax, peak 3 */
+/* Numerical trouble in one fluid cell, worst first (the order in which a
+ * scan reports them): a density that is not a finite number (the lattice has
+ * blown up: NaN or Inf spread from here), a density <= 0 (populations gone
+ * negative: an unstable collision or a boundary that removes more mass than
+ * the cell holds), a non-finite velocity, and a velocity above the Mach
+ * limit (the lattice has one speed of sound c_s = 1/sqrt(3); near c_s the
+ * compressibility error grows as Ma^2 and BGK/TRT lose stability). */
+enum { TROUBLE_NONE, TROUBLE_MACH, TROUBLE_VELOCITY, TROUBLE_DENSITY, TROUBLE_DENSITY_NAN };
+static const char *const TROUBLE_CAUSES[] = {
+    "", "velocity above the Mach limit fluid.mach_limit", "non-finite velocity (NaN or Inf)",
+    "non-positive density", "non-finite density (NaN or Inf)"};
+
+static inline int cell_trouble(double r, const double u[3], double umax2)
+{
+    const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    if (!isfinite(r)) {
+        return TROUBLE_DENSITY_NAN;
+    }
+    if (!(r > 0.0)) {
+        return TROUBLE_DENSITY;
+    }
+    if (!isfinite(uu)) {
+        return TROUBLE_VELOCITY;
+    }
+    return uu > umax2 ? TROUBLE_MACH : TROUBLE_NONE;
+}
+
+/* One number per cell in trouble that orders cells as a scan reports them:
+ * the worse cause first, then the first cell in memory order; 0 for none.
+ * Exact in a double (ncells * 5 < 2^53). */
+static inline double trouble_key(const grid_t *g, int cause, size_t i)
+{
+    return cause == TROUBLE_NONE ? 0.0 : (double)cause * (double)g->ncells + (double)(g->ncells - 1 - i);
+}
+
+/* The error message of the cell a trouble key names: step, time, cell,
+ * position in m, cause with the numbers, and what to change. */
+static status_t trouble_report(const fluid_t *fl, double key, double mach_limit)
+{
+    const grid_t *g = &fl->g;
+    const int cause = (int)floor(key / (double)g->ncells);
+    const size_t i = g->ncells - 1 - (size_t)(key - (double)cause * (double)g->ncells);
+    const int x = (int)(i % (size_t)g->s[0]);
+    const int y = (int)(i / (size_t)g->s[0] % (size_t)g->s[1]);
+    const int z = (int)(i / ((size_t)g->s[0] * (size_t)g->s[1]));
+    const pops_t pf = fluid_pops(fl);
+    double r, u[3];
+    local_moments(fl, &pf, i, &r, u);
+    const double umag = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]), dx = fl->units.dx;
+    const char *remedy = cause == TROUBLE_MACH
+                             ? "lower the flow speed in lattice units: a smaller time step (fluid.tau closer to 0.5, "
+                               "or fluid.dt), or slower walls, inlets, body force or bodies; raise fluid.mach_limit "
+                               "(at most 1) only if this speed is meant"
+                             : "the lattice became unstable: raise fluid.tau (or fluid.dt) away from 0.5, use TRT "
+                               "(fluid.collision: trt), more cells (fluid.dx), or lower the flow speed";
+    return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                   "%s: numerical trouble at step %ld (t = %.6g s), cell (%d, %d, %d) at (%.4g, %.4g, %.4g) m: "
+                   "%s (density %.6g, |u| = %.4g lattice = Mach %.4g, fluid.mach_limit %.4g); %s",
+                   fl->path, fl->step, fluid_time(fl), x - 1, y - 1, z - 1, (x - 0.5) * dx, (y - 0.5) * dx,
+                   (z - 0.5) * dx, TROUBLE_CAUSES[cause], r, umag, umag / sqrt(LB_CS2), mach_limit, remedy);
+}
+
+enum { DIAG_NV = 10 }; /* mass, momentum 3, kinetic, umax, peak 3, trouble key */
 
 /* The sums of one z plane, with the layout state and precision known at
  * compile time (one copy per combination below). */
 static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_t *fl, const pops_t *p0, int z,
-                                                                    double *v, layout_state_t state, int single)
+                                                                    double *v, double umax2, layout_state_t state,
+                                                                    int single)
 {
     const grid_t *g = &fl->g;
     const pops_t pl = pops_fixed(p0, state, single);
@@ -532,27 +595,30 @@ static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_
             }
             v[4] += 0.5 * r * uu;
             v[5] = fmax(v[5], sqrt(uu));
+            v[9] = fmax(v[9], trouble_key(g, cell_trouble(r, u, umax2), i));
         }
     }
 }
 
-void fluid_diagnostics_lattice(fluid_t *fl, double *mass, double momentum[3], double *kinetic, double *umax,
-                               double peak[3])
+status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass, double momentum[3], double *kinetic,
+                                   double *umax, double peak[3])
 {
     const grid_t *g = &fl->g;
     const pops_t pf = fluid_pops(fl);
     const int nz = g->n[2];
+    const double umax2 = mach_limit * mach_limit * LB_CS2;
     enum { NV = DIAG_NV };
     double *plane = calloc((size_t)nz * NV, sizeof(double));
     if (plane == NULL) {
         *mass = *kinetic = *umax = NAN;
         momentum[0] = momentum[1] = momentum[2] = peak[0] = peak[1] = peak[2] = NAN;
-        return;
+        return log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory for the plane sums of the totals (%zu bytes)",
+                       (size_t)nz * NV * sizeof(double));
     }
 #pragma omp parallel for schedule(static)
     for (int z = 1; z <= nz; z++) {
         double *v = plane + (size_t)(z - 1) * NV;
-#define PLANE(state, single) diagnostics_plane(fl, &pf, z, v, state, single)
+#define PLANE(state, single) diagnostics_plane(fl, &pf, z, v, umax2, state, single)
         POPS_SPECIALISE(&pf, PLANE);
 #undef PLANE
     }
@@ -568,6 +634,7 @@ void fluid_diagnostics_lattice(fluid_t *fl, double *mass, double momentum[3], do
                 t[6 + a] = v[6 + a];
             }
         }
+        t[9] = fmax(t[9], v[9]);
     }
     free(plane);
     *mass = t[0];
@@ -577,6 +644,7 @@ void fluid_diagnostics_lattice(fluid_t *fl, double *mass, double momentum[3], do
     }
     *kinetic = t[4];
     *umax = t[5];
+    return t[9] > 0.0 ? trouble_report(fl, t[9], mach_limit) : STATUS_OK;
 }
 
 status_t fluid_check(fluid_t *fl, double mach_limit)
@@ -584,10 +652,9 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
     const grid_t *g = &fl->g;
     const pops_t pf = fluid_pops(fl), *f = &pf;
     const double umax2 = mach_limit * mach_limit * LB_CS2;
-    long bad = -1;
-    int cause = 0;
+    double worst = 0.0;
     const int ny = g->n[1], nz = g->n[2];
-#pragma omp parallel for collapse(2) schedule(static) reduction(max : bad)
+#pragma omp parallel for collapse(2) schedule(static) reduction(max : worst)
     for (int z = 1; z <= nz; z++) {
         for (int y = 1; y <= ny; y++) {
             for (int x = 1; x <= g->n[0]; x++) {
@@ -595,34 +662,36 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
                 if (fl->flags[i] != CELL_FLUID) {
                     continue;
                 }
-                double j[3];
-                const double r = pops_moments(f, i, j);
-                const double uu = (j[0] * j[0] + j[1] * j[1] + j[2] * j[2]) / (r * r);
-                if (!(r > 0.0) || !isfinite(r) || !(uu <= umax2)) {
-                    bad = (long)i > bad ? (long)i : bad;
-                }
+                double r, u[3];
+                local_moments(fl, f, i, &r, u);
+                worst = fmax(worst, trouble_key(g, cell_trouble(r, u, umax2), i));
             }
         }
     }
-    if (bad < 0) {
-        return STATUS_OK;
+    return worst > 0.0 ? trouble_report(fl, worst, mach_limit) : STATUS_OK;
+}
+
+status_t fluid_check_loads(fluid_t *fl, double mach_limit)
+{
+    for (int i = 0; i < fl->spheres.n; i++) {
+        const sphere_t *p = &fl->spheres.s[i];
+        double f[3], t[3];
+        delivered_load(fl, p, f, t);
+        if (isfinite(f[0] + f[1] + f[2] + t[0] + t[1] + t[2] + p->zt + p->zr)) {
+            continue;
+        }
+        /* the load sums the links of the sphere's surface cells: the fluid
+         * there is in trouble; the scan names the cell (and the worst one) */
+        const status_t st = fluid_check(fl, mach_limit);
+        const double dx = fl->units.dx;
+        return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                       "%s: numerical trouble at step %ld (t = %.6g s): non-finite hydrodynamic load on sphere %d at "
+                       "(%.4g, %.4g, %.4g) m (force (%.4g, %.4g, %.4g), torque (%.4g, %.4g, %.4g) lattice)%s",
+                       fl->path, fl->step, fluid_time(fl), i, (p->c[0] - 0.5) * dx, (p->c[1] - 0.5) * dx,
+                       (p->c[2] - 0.5) * dx, f[0], f[1], f[2], t[0], t[1], t[2],
+                       st >= STATUS_ERROR ? " (the cell is named above)" : "");
     }
-    const size_t i = (size_t)bad;
-    const int x = (int)(i % (size_t)g->s[0]);
-    const int y = (int)(i / (size_t)g->s[0] % (size_t)g->s[1]);
-    const int z = (int)(i / ((size_t)g->s[0] * (size_t)g->s[1]));
-    double j[3];
-    const double r = pops_moments(f, i, j);
-    const double umag = sqrt(j[0] * j[0] + j[1] * j[1] + j[2] * j[2]) / r;
-    cause = !isfinite(r) ? 1 : (!(r > 0.0) ? 2 : 3);
-    static const char *causes[] = {"", "non-finite density (NaN or Inf)", "non-positive density",
-                                   "velocity above the Mach limit"};
-    const double dx = fl->units.dx;
-    return log_msg(&fl->log, STATUS_ERROR, "fluid",
-                   "%s: numerical trouble at step %ld (t = %.6g s), cell (%d, %d, %d) at (%.4g, %.4g, %.4g) m: "
-                   "%s (density %.6g, |u| = %.4g lattice = Mach %.3g, limit Mach %.3g)",
-                   fl->path, fl->step, fluid_time(fl), x - 1, y - 1, z - 1, (x - 0.5) * dx, (y - 0.5) * dx,
-                   (z - 0.5) * dx, causes[cause], r, umag, umag / sqrt(LB_CS2), mach_limit);
+    return STATUS_OK;
 }
 
 int fluid_nspheres(const fluid_t *fl) { return fl->spheres.n; }
@@ -647,17 +716,21 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
     }
     speed = sqrt(speed) * u->dt / u->dx;
     const double worst = fmax(moved, speed);
-    if (!(worst <= 1.0)) {
+    if (!(worst <= 0.5)) {
+        /* the link lists are rebuilt from the new position, and a cell the
+         * sphere uncovers is refilled from neighbours that were fluid in the
+         * last step: both assume the surface moves less than half a cell (a
+         * larger jump uncovers cells with no fluid neighbour to refill from
+         * and makes the boundary force jump); the sphere stays where it was */
+        const double dx = u->dx;
         return log_msg(&fl->log, STATUS_ERROR, "fluid",
-                       "%s: sphere %d moves %.3g cells in one step at step %ld (limit 1 cell; above half a cell the "
-                       "boundary links cannot follow): reduce dt (fluid.tau) or the velocity",
-                       fl->path, i, worst, fl->step);
-    }
-    status_t st = STATUS_OK;
-    if (worst > 0.5) {
-        st = log_msg(&fl->log, STATUS_WARNING, "fluid",
-                     "%s: sphere %d moves %.3g cells in one step at step %ld (more than half a cell)", fl->path, i,
-                     worst, fl->step);
+                       "%s: sphere %d moves %.3g cells in one step at step %ld (t = %.6g s), from (%.4g, %.4g, "
+                       "%.4g) m at %.4g m/s (limit half a cell per step: the boundary links and the refill of "
+                       "uncovered cells cannot follow a larger move): use a smaller time step (fluid.tau closer to "
+                       "0.5, or fluid.dt), more cells (a smaller fluid.dx at the same tau: dt shrinks as dx^2), "
+                       "or a lower velocity",
+                       fl->path, i, worst, fl->step, fluid_time(fl), (p->c[0] - 0.5) * dx, (p->c[1] - 0.5) * dx,
+                       (p->c[2] - 0.5) * dx, speed * u->dx / u->dt);
     }
     for (int a = 0; a < 3; a++) {
         p->c[a] = cn[a];
@@ -667,7 +740,7 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
             p->c[a] = 0.5 + fmod(fmod(p->c[a] - 0.5, fl->g.n[a]) + fl->g.n[a], fl->g.n[a]);
         }
     }
-    return st;
+    return STATUS_OK;
 }
 
 void fluid_get_sphere(const fluid_t *fl, int i, double c[3], double v[3], double w[3])

@@ -45,20 +45,29 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3]);
  * momentum sum rho u, kinetic energy sum rho u^2 / 2, the largest |u| and,
  * per axis, the velocity component of largest magnitude (u from the
  * post-collision moments, fluid_moments_lattice). Summed plane by plane and
- * the planes in order: the same result for any number of threads. */
-void fluid_diagnostics_lattice(fluid_t *fl, double *mass, double momentum[3], double *kinetic, double *umax,
-                               double peak[3]);
+ * the planes in order: the same result for any number of threads. The same
+ * pass does what fluid_check does: STATUS_ERROR (totals computed anyway)
+ * when a cell is in numerical trouble, so that totals are never NaN
+ * silently. */
+status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass, double momentum[3],
+                                   double *kinetic, double *umax, double peak[3]);
 
 /* Scans for numerical trouble: a non-finite or non-positive density, or a
- * velocity above mach_limit times the lattice speed of sound. Returns
- * STATUS_ERROR with step, cell, position and cause in the message. */
+ * velocity above mach_limit times the lattice speed of sound (the scene's
+ * fluid.mach_limit). Returns STATUS_ERROR with step, cell, position in m and
+ * cause in the message (the worst cause, at its first cell). */
 status_t fluid_check(fluid_t *fl, double mach_limit);
+/* The cheap check before the outputs are read: the load of every sphere
+ * (force, torque, drag coefficients) is finite. When not, the full scan
+ * (fluid_check) names the cell in trouble, and the error names the sphere. */
+status_t fluid_check_loads(fluid_t *fl, double mach_limit);
 
 /* Spheres (global index: bodies in scene order, their spheres in order). */
 int fluid_nspheres(const fluid_t *fl);
 /* Kinematics for the next step, SI: centre, centre velocity, angular velocity
- * of its body. A move of more than half a cell in one step is a warning, more
- * than one cell an error. Prescribed and fixed spheres move by themselves. */
+ * of its body. A move (or a velocity) of more than half a cell in one step is
+ * refused with STATUS_ERROR and the remedies; the sphere then stays where it
+ * was. Prescribed and fixed spheres move by themselves. */
 status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[3], const double w[3]);
 void fluid_get_sphere(const fluid_t *fl, int i, double c[3], double v[3], double w[3]);
 /* Hydrodynamic force (N) and torque about the centre (N m) of the last step,

@@ -70,6 +70,29 @@ static contact_law_t contact_law(const rigid_config_t *cfg, double delta, double
     return out;
 }
 
+double rigid_contact_normal_force(const rigid_config_t *cfg, double delta, double ddelta, double meff, double rstar,
+                                  double *omega0)
+{
+    const contact_law_t law = contact_law(cfg, delta, ddelta, meff, rstar);
+    *omega0 = law.omega0;
+    return law.fn;
+}
+
+/* The spring part of each law integrated over the overlap: k delta^2 / 2
+ * (linear), 8/15 E* sqrt(R*) delta^(5/2) (Hertz). */
+double rigid_contact_elastic_energy(const rigid_config_t *cfg, double delta, double meff, double rstar)
+{
+    if (cfg->contact_model == RIGID_CONTACT_SPRING_DASHPOT) {
+        const double le = log(cfg->restitution), tc = cfg->contact_time;
+        return 0.5 * meff * (M_PI * M_PI + le * le) / (tc * tc) * delta * delta;
+    }
+    if (cfg->contact_model == RIGID_CONTACT_HERTZ) {
+        const double nu = cfg->poisson_ratio, estar = cfg->young_modulus / (2.0 * (1.0 - nu * nu));
+        return 8.0 / 15.0 * estar * sqrt(rstar) * pow(delta, 2.5);
+    }
+    return 0.0;
+}
+
 static double body_mass_or_inf(const rigid_body_t *b) { return b->fixed ? INFINITY : b->mass; }
 
 static double eff_mass(double m1, double m2)
@@ -128,6 +151,21 @@ static double contact_apply(rigid_t *r, int i, int j, const double n[3], double 
     return law.omega0;
 }
 
+void rigid_contact_pair_mass(const rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t *p, double *meff,
+                             double *rstar)
+{
+    const rigid_sphere_t *si = &r->spheres[p->i];
+    const rigid_body_t *bi = &bodies[si->body];
+    if (p->j >= 0) {
+        const rigid_sphere_t *sj = &r->spheres[p->j];
+        *meff = eff_mass(body_mass_or_inf(bi), body_mass_or_inf(&bodies[sj->body]));
+        *rstar = si->radius * sj->radius / (si->radius + sj->radius);
+    } else {
+        *meff = bi->mass;
+        *rstar = si->radius;
+    }
+}
+
 /* Records the first fault of a force evaluation. */
 static int fault(rigid_t *r, rigid_fault_kind_t kind, const rigid_pair_t *p)
 {
@@ -156,21 +194,10 @@ static int contact_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair
         return 0;
     }
     double delta = -p->gap, meff, rstar;
-    const rigid_body_t *bi = &bodies[si->body];
-    if (p->j >= 0) {
-        const rigid_sphere_t *sj = &r->spheres[p->j];
-        if (delta > fmin(si->radius, sj->radius)) {
-            return fault(r, RIGID_FAULT_DEEP, p);
-        }
-        meff = eff_mass(body_mass_or_inf(bi), body_mass_or_inf(&bodies[sj->body]));
-        rstar = si->radius * sj->radius / (si->radius + sj->radius);
-    } else {
-        if (delta > si->radius) {
-            return fault(r, RIGID_FAULT_DEEP, p);
-        }
-        meff = bi->mass;
-        rstar = si->radius;
+    if (delta > (p->j >= 0 ? fmin(si->radius, r->spheres[p->j].radius) : si->radius)) {
+        return fault(r, RIGID_FAULT_DEEP, p);
     }
+    rigid_contact_pair_mass(r, bodies, p, &meff, &rstar);
     double w0 = contact_apply(r, p->i, p->j, p->n, delta, p->pc, p->vrel, meff, rstar, c->x[p->i], p->xj);
     if (c->worst != NULL && w0 > c->worst->omega0) {
         c->worst->omega0 = w0;

@@ -328,9 +328,25 @@ static status_t cv_advance(rigid_t *r, void *data, double h)
         return cv_fail(r, d, "CVodeSetStopTime", flag);
     }
     double tret = r->t;
-    flag = CVode(d->mem, tend, d->y, &tret, CV_NORMAL);
-    if (flag < 0) {
-        return cv_report(r, d, flag, tret);
+    if (cfg->contact_model == RIGID_CONTACT_NONE) {
+        flag = CVode(d->mem, tend, d->y, &tret, CV_NORMAL);
+        if (flag < 0) {
+            return cv_report(r, d, flag, tret);
+        }
+    } else {
+        /* step by step (the same internal steps as CV_NORMAL up to the stop
+         * time), so that the contact watch sees every accepted state */
+        do {
+            flag = CVode(d->mem, tend, d->y, &tret, CV_ONE_STEP);
+            if (flag < 0) {
+                return cv_report(r, d, flag, tret);
+            }
+            unpack(r, y, r->scratch_bodies);
+            if (rigid_forces(r, r->scratch_bodies, 0.0, NULL) >= 0 &&
+                (st = rigid_contact_watch(r, r->scratch_bodies, tret)) != STATUS_OK) {
+                return st;
+            }
+        } while (flag != CV_TSTOP_RETURN && tret < tend);
     }
     unpack(r, y, r->scratch_bodies);
     for (int b = 0; b < r->nbodies; b++) {

@@ -27,6 +27,7 @@ void rigid_free(rigid_t *r)
     if (r->ops != NULL) {
         r->ops->free(r->integ);
     }
+    rigid_contact_watch_free(r);
     free(r->scratch_bodies);
     free(r->sx);
     free(r->sv);
@@ -63,6 +64,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     r->cfg.bodies = NULL;
     r->cfg.connections = NULL;
     r->t = cfg->t0;
+    r->watch_t = NAN;
     size_t ns = (size_t)cfg->nspheres;
     r->nspheres = cfg->nspheres;
     r->nbodies = cfg->nbodies;
@@ -225,6 +227,14 @@ static void load_correction(rigid_t *r)
             b->v[a] += half * df[a] / b->mass;
             b->l[a] += half * (m[a] + dt[a]);
         }
+        /* a jump the contact watch must allow for (|dw| bounded by the
+         * smallest principal moment) */
+        const double imin = fmin(b->inertia[0], fmin(b->inertia[1], b->inertia[2]));
+        double dl[3];
+        for (int a = 0; a < 3; a++) {
+            dl[a] = half * (m[a] + dt[a]);
+        }
+        rigid_contact_watch_kick(r, s->body, half * rv_norm(df) / b->mass, imin > 0.0 ? rv_norm(dl) / imin : 0.0);
     }
 }
 

@@ -72,6 +72,19 @@ typedef struct {
     double gap;              /* surface gap, m (< 0: overlap) */
 } rigid_fault_t;
 
+/* A pair the contact watch follows (contact_watch.c). */
+typedef enum { WATCH_NEW, WATCH_NEAR, WATCH_TOUCHING, WATCH_UNKNOWN } rigid_watch_phase_t;
+typedef struct {
+    int i, j;      /* sphere i and its partner: sphere j > i of another body, or the wall j = -1 - face */
+    int phase;     /* rigid_watch_phase_t: UNKNOWN = in contact since before the watch saw it */
+    int seen;      /* met in the current pass */
+    double v_in;   /* normal approach speed at the last sample before the touch, m/s */
+    double t_in;   /* time of that sample */
+    double allow;  /* speed the other forces may have added since, m/s */
+    double rate;   /* their bound per second at the last sample, m/s^2 */
+    double omega0; /* largest contact frequency met, 1/s */
+} rigid_watch_t;
+
 struct rigid {
     rigid_config_t cfg; /* copy; the array pointers of cfg are NOT kept (set to NULL) */
     log_t log;
@@ -95,6 +108,11 @@ struct rigid {
     rigid_fault_t fault;    /* of the last force evaluation */
     long nforces;           /* force evaluations so far (diagnostics; not part of the state) */
     rigid_body_t *scratch_bodies;
+    /* the contact watch (contact_watch.c): not part of the saved state */
+    rigid_watch_t *watch;
+    int nwatch, watch_cap;
+    double watch_t;         /* time of its last sample (NaN: none yet) */
+    double *watch_kick;     /* per body: |dv|, |dw| of velocity jumps outside the integrator since then */
     const struct rigid_integrator_ops *ops;
     void *integ;            /* integrator private data */
 };
@@ -239,6 +257,25 @@ typedef int (*rigid_pair_fn)(rigid_t *r, const rigid_body_t *bodies, const rigid
 int rigid_pairs_visit(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], double reach, rigid_pair_fn fn,
                       void *ctx);
 const char *rigid_face_name(int face); /* "x_min" ... "z_max" */
+
+/* ---- contact.c helpers and contact_watch.c (after the pair type) ---- */
+/* The effective mass m_eff and radius R* of a pair (a fixed body or a wall: infinite mass). */
+void rigid_contact_pair_mass(const rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t *p, double *meff,
+                             double *rstar);
+/* The normal force (repulsive > 0) at overlap delta and approach speed ddelta, and omega0. */
+double rigid_contact_normal_force(const rigid_config_t *cfg, double delta, double ddelta, double meff, double rstar,
+                                  double *omega0);
+/* The elastic energy stored at overlap delta (the spring part of the law). */
+double rigid_contact_elastic_energy(const rigid_config_t *cfg, double delta, double meff, double rstar);
+/* contact_watch.c: after an accepted step to time t of the bodies (r->sx,
+ * r->bf, r->bt from rigid_forces on them): STATUS_ERROR when a contact has
+ * gained energy (the message names time, bodies, ratio, contact time, step
+ * and remedies). */
+status_t rigid_contact_watch(rigid_t *r, const rigid_body_t *bodies, double t);
+void rigid_contact_watch_reset(rigid_t *r);
+void rigid_contact_watch_free(rigid_t *r);
+/* A velocity jump of body b outside the integrator (the held-load correction). */
+void rigid_contact_watch_kick(rigid_t *r, int body, double dv, double dw);
 
 /* ---- integrators ---- */
 typedef struct rigid_integrator_ops {

@@ -7,7 +7,7 @@
  * principal inertia, fixed) and the connection array (pair, limits, intact,
  * last force and torque), then the nspheres^2 touch flags of the sticking
  * rule. Derived data (sections, scratch) is rebuilt on
- * restore; CVODE is re-initialised at the start of every step anyway, so the
+ * restore, and the contact watch starts afresh (contact_watch.c); CVODE is re-initialised at the start of every step anyway, so the
  * continuation after a restore is bit-identical to the uninterrupted run. */
 #include "rigid_internal.h"
 
@@ -108,6 +108,7 @@ status_t rigid_state_restore(rigid_t *r, const void *buf, size_t size)
     memcpy(r->conn, p, (size_t)h.nconn * sizeof(rigid_conn_t));
     p += (size_t)h.nconn * sizeof(rigid_conn_t);
     memcpy(r->touch, p, (size_t)h.nspheres * (size_t)h.nspheres);
+    rigid_contact_watch_reset(r); /* its records belong to the run that went on (contact_watch.c) */
     r->nbodies = h.nbodies;
     r->nconn = h.nconn;
     r->t = h.t;

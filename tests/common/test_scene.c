@@ -256,6 +256,7 @@ static void test_defaults(void)
     }
     CU_ASSERT_EQUAL(s->fluid.collision, COLLISION_TRT);
     CU_ASSERT_DOUBLE_EQUAL(s->fluid.magic, 3.0 / 16.0, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.mach_limit, 0.3, 0);
     CU_ASSERT_EQUAL(s->fluid.boundary_scheme, BOUNDARY_CLI);
     CU_ASSERT_EQUAL(s->fluid.refill, REFILL_EXTRAPOLATION);
     CU_ASSERT_EQUAL(s->fluid.force_method, FORCE_GALILEAN);
@@ -438,13 +439,18 @@ static void test_warnings(void)
     assert_contains(&cap, "fluid.magic = 0.25: ignored", __LINE__);
     scene_free(s);
 
-    /* A free body faster than half a cell per step: warning only. */
+    /* A free body faster than half a cell per step: refused (the fluid would
+     * refuse its first step), with the remedies; at the limit it loads. */
     const char *const ov2[] = {"bodies.0.velocity=[1, 0, 0]"};
-    CU_ASSERT_EQUAL(load(BASE, ov2, 1, &cap, &s), STATUS_OK);
-    CU_ASSERT_EQUAL(cap.nwarnings, 1);
-    CU_ASSERT_PTR_NOT_NULL(s);
+    CU_ASSERT_EQUAL(load(BASE, ov2, 1, &cap, &s), STATUS_ERROR);
+    CU_ASSERT_EQUAL(cap.nerrors, 1);
+    CU_ASSERT_PTR_NULL(s);
     assert_contains(&cap, "bodies.0.velocity = [1, 0, 0]", __LINE__);
     assert_contains(&cap, "allowed: at most 0.5 cells per step = 0.2 m/s", __LINE__);
+    assert_contains(&cap, "fluid.tau closer to 0.5", __LINE__);
+    const char *const ov3[] = {"bodies.0.velocity=[0.19, 0, 0]"};
+    CU_ASSERT_EQUAL(load(BASE, ov3, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_EQUAL(cap.nerrors, 0);
     scene_free(s);
 }
 

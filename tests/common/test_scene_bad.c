@@ -167,6 +167,11 @@ static const bad_scene_t CASES[] = {
      "(0.5, inf)"},
     {9, "  cells_per_radius: -2", NULL, {NULL}, 1,
      "scene.yaml:9: fluid.cells_per_radius = -2: out of range; allowed: [1.5, inf)"},
+    /* the Mach limit of the fluid's check: (0, 1] (the lattice cannot carry Mach 1) */
+    {0, NULL, NULL, {"fluid.mach_limit=0"}, 1,
+     "scene.yaml (--set fluid.mach_limit=0): fluid.mach_limit = 0: out of range; allowed: (0, 1]"},
+    {0, NULL, NULL, {"fluid.mach_limit=1.5"}, 1,
+     "scene.yaml (--set fluid.mach_limit=1.5): fluid.mach_limit = 1.5: out of range; allowed: (0, 1]"},
     {0, NULL, NULL, {"fluid.collision=lbgk"}, 1,
      "scene.yaml (--set fluid.collision=lbgk): fluid.collision: wrong type or value (libcyaml: Invalid "
      "ENUM value: lbgk); allowed: one of bgk | trt"},

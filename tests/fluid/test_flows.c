@@ -12,7 +12,10 @@
  *   recovered with second-order convergence;
  * - a channel with a parabolic velocity inlet and a pressure outlet: the
  *   profile holds along the channel and dp/dx = -8 mu U / H^2 (plane
- *   Poiseuille, e.g. White, Viscous Fluid Flow, 3rd ed., Eq. 3-39). */
+ *   Poiseuille, e.g. White, Viscous Fluid Flow, 3rd ed., Eq. 3-39);
+ * - the numerical-trouble detectors (fluid_check and the check folded into
+ *   the totals): a NaN, a non-positive density and a cell above the Mach
+ *   limit are each found, with the cause, the cell and its position. */
 #include "fluid_tests.h"
 #include "test_util.h"
 
@@ -22,6 +25,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #define PI 3.14159265358979323846
 
@@ -298,6 +302,73 @@ static void test_inlet_outlet_channel(void)
     fluid_free(fl);
 }
 
+/* ---- numerical trouble ---------------------------------------------------- */
+
+/* A 12 x 10 x 8 box at rest (dx = 1 m: positions in m are cell centres
+ * i + 1/2) with cell (3, 4, 5) given density rho and velocity (ux, 0, 0):
+ * the status of fluid_check and of the totals' pass, and the messages. */
+static void trouble(double rho, double ux, double mach_limit, status_t *check, status_t *totals, test_log_t *tl,
+                    char *msg_check, size_t n)
+{
+    scene_t s = test_box(12, 10, 8, 0.8, COLLISION_TRT);
+    log_t l = test_log(tl);
+    fluid_t *fl = NULL;
+    CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &fl), STATUS_OK);
+    const int nc = 12 * 10 * 8;
+    double *r = malloc(sizeof(double) * nc), *u = calloc(3 * (size_t)nc, sizeof(double));
+    CU_ASSERT_FATAL(r != NULL && u != NULL);
+    for (int i = 0; i < nc; i++) {
+        r[i] = 1.0;
+    }
+    const int o = 3 + 12 * (4 + 10 * 5);
+    r[o] = rho;
+    u[3 * o] = ux;
+    fluid_set_equilibrium_lattice(fl, r, u);
+    *check = fluid_check(fl, mach_limit);
+    snprintf(msg_check, n, "%s", tl->last);
+    double mass, mom[3], ke, umax, peak[3];
+    tl->last[0] = '\0';
+    *totals = fluid_diagnostics_lattice(fl, mach_limit, &mass, mom, &ke, &umax, peak);
+    free(r);
+    free(u);
+    fluid_free(fl);
+}
+
+static void test_trouble_detected(void)
+{
+    test_log_t tl;
+    char msg[2048];
+    status_t check, totals;
+    /* a NaN: named as non-finite, at its cell and position, by both passes */
+    trouble(NAN, 0.0, 0.3, &check, &totals, &tl, msg, sizeof msg);
+    CU_ASSERT_EQUAL(check, STATUS_ERROR);
+    CU_ASSERT_EQUAL(totals, STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "numerical trouble at step 0"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "cell (3, 4, 5) at (3.5, 4.5, 5.5) m"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "non-finite density"));
+    CU_ASSERT_STRING_EQUAL(tl.last, msg);
+    /* a negative density */
+    trouble(-0.5, 0.0, 0.3, &check, &totals, &tl, msg, sizeof msg);
+    CU_ASSERT_EQUAL(check, STATUS_ERROR);
+    CU_ASSERT_EQUAL(totals, STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "non-positive density"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "cell (3, 4, 5)"));
+    /* |u| = 0.2 lattice = Mach 0.346: above the default limit 0.3 ... */
+    trouble(1.0, 0.2, 0.3, &check, &totals, &tl, msg, sizeof msg);
+    CU_ASSERT_EQUAL(check, STATUS_ERROR);
+    CU_ASSERT_EQUAL(totals, STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "Mach limit"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "Mach 0.3464"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "cell (3, 4, 5) at (3.5, 4.5, 5.5) m"));
+    /* ... and below a limit of 0.4; a healthy box passes */
+    trouble(1.0, 0.2, 0.4, &check, &totals, &tl, msg, sizeof msg);
+    CU_ASSERT_EQUAL(check, STATUS_OK);
+    CU_ASSERT_EQUAL(totals, STATUS_OK);
+    trouble(1.0, 0.0, 0.3, &check, &totals, &tl, msg, sizeof msg);
+    CU_ASSERT_EQUAL(check, STATUS_OK);
+    CU_ASSERT_EQUAL(totals, STATUS_OK);
+}
+
 void flows_register_tests(int validate)
 {
     (void)validate;
@@ -311,6 +382,8 @@ void flows_register_tests(int validate)
     CU_add_test(s, "free-slip box: plug flow, momentum F V t", test_free_slip_box_plug_flow);
     CU_add_test(s, "Taylor-Green viscosity, second order", test_taylor_green);
     CU_add_test(s, "inlet/outlet channel: profile and pressure drop", test_inlet_outlet_channel);
+    CU_add_test(s, "numerical trouble: NaN, non-positive density, Mach limit found with cell and position",
+                test_trouble_detected);
 }
 
 void fluid_register_tests(int validate)

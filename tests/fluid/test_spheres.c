@@ -523,20 +523,58 @@ static void test_sphere_speed_limits(void)
     const double v0[3] = {0.1, 0, 0}, w0[3] = {0, 0, 0};
     double p[3] = {8.1, 8.0, 8.0};
     CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_OK);
-    /* 0.7 cells in one step: a warning naming the sphere and the distance */
-    p[0] = 8.8;
-    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_WARNING);
-    CU_ASSERT(strstr(tl.last, "sphere 0") != NULL && strstr(tl.last, "0.7") != NULL);
-    /* 1.5 cells: an error, and the sphere stays where it was */
-    p[0] = 10.3;
+    /* 0.45 cells in one step: accepted */
+    tl.worst = STATUS_OK;
+    p[0] = 8.55;
+    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_OK);
+    CU_ASSERT(tl.worst < STATUS_ERROR);
+    /* 0.7 cells: an error naming the sphere, the distance, the step and the
+     * remedies, and the sphere stays where it was */
+    p[0] = 9.25;
     CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_ERROR);
-    CU_ASSERT(strstr(tl.last, "sphere 0") != NULL && strstr(tl.last, "limit 1 cell") != NULL);
+    CU_ASSERT(strstr(tl.last, "sphere 0 moves 0.7 cells in one step at step 0") != NULL);
+    CU_ASSERT(strstr(tl.last, "limit half a cell per step") != NULL);
+    CU_ASSERT(strstr(tl.last, "fluid.tau") != NULL && strstr(tl.last, "fluid.dx") != NULL);
     double c1[3], v1[3], w1[3];
     fluid_get_sphere(fl, 0, c1, v1, w1);
-    CU_ASSERT_DOUBLE_EQUAL(c1[0], 8.8, 1e-12);
-    /* a velocity above one cell per step is refused too */
-    const double vfast[3] = {1.2, 0, 0};
+    CU_ASSERT_DOUBLE_EQUAL(c1[0], 8.55, 1e-12);
+    /* a velocity above half a cell per step is refused too (0.6 cells) */
+    const double vfast[3] = {0.6, 0, 0};
     CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, c1, vfast, w0), STATUS_ERROR);
+    CU_ASSERT(strstr(tl.last, "moves 0.6 cells") != NULL);
+    fluid_free(fl);
+}
+
+/* ---- numerical trouble next to a sphere --------------------------------- */
+
+/* A NaN in a fluid cell next to the surface enters the sphere's load in the
+ * next step: the cheap check at the end of a communication step
+ * (fluid_check_loads) stops there, naming the sphere, and the scan the cell. */
+static void test_nan_load_detected(void)
+{
+    scene_t s = test_box(16, 16, 16, 0.8, COLLISION_TRT);
+    const double c[3] = {8.0, 8.0, 8.0};
+    harness_one_sphere(&s, c, 3.0, MOTION_FIXED);
+    test_log_t tl;
+    log_t l = test_log(&tl);
+    fluid_t *fl = NULL;
+    CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &fl), STATUS_OK);
+    test_run(fl, 2);
+    CU_ASSERT_EQUAL(fluid_check_loads(fl, 0.3), STATUS_OK);
+    const int nc = 16 * 16 * 16;
+    double *rho = malloc(sizeof(double) * nc);
+    CU_ASSERT_FATAL(rho != NULL);
+    for (int i = 0; i < nc; i++) {
+        rho[i] = 1.0;
+    }
+    rho[11 + 16 * (8 + 16 * 8)] = NAN; /* centre 11.5 m: 3.5 cells from the sphere's centre */
+    fluid_set_equilibrium_lattice(fl, rho, NULL);
+    free(rho);
+    CU_ASSERT_EQUAL(fluid_step(fl), STATUS_OK);
+    CU_ASSERT_EQUAL(fluid_check_loads(fl, 0.3), STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "non-finite hydrodynamic load on sphere 0 at (8, 8, 8) m"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "at step 3"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "the cell is named above"));
     fluid_free(fl);
 }
 
@@ -555,7 +593,8 @@ void spheres_register_tests(int validate)
                 test_moving_sphere_fluctuation);
     CU_add_test(s, "shift across a periodic face: same force", test_shift_across_periodic_face);
     CU_add_test(s, "state save/restore: bit-identical continuation", test_state_restore_bit_identical);
-    CU_add_test(s, "a sphere moving more than half a cell / a cell per step", test_sphere_speed_limits);
+    CU_add_test(s, "a sphere moving more than half a cell per step is refused", test_sphere_speed_limits);
+    CU_add_test(s, "numerical trouble: a NaN next to a sphere stops at its load", test_nan_load_detected);
     CU_add_test(s, "drag coefficients = the load's one-step response to v and w", test_drag_coefficients);
     CU_add_test(s, "coupling: geometric drag estimate = measured coefficient", test_coupling_drag_estimate);
     if (validate) {

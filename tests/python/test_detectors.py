@@ -1,0 +1,136 @@
+"""The fluid's numerical-trouble detectors through the coupler (issue 14, "Detection inside
+the components"): a scene that blows up, or that runs faster than the lattice or the moving
+boundary allows, stops with a non-zero exit and a message that names the step, the place and the
+cause, and the output file opens with every row written before the failure, all finite: no
+silent NaN. The component-level tests are in tests/fluid (flows "numerical trouble", spheres)
+and tests/rigid (rigid_contact "energy growth", rigid_walls)."""
+import re
+
+import h5py
+import numpy as np
+
+from conftest import run
+
+# a closed 16^3 cavity of 0.4 mm, the lid (z_max) moving along x
+CAVITY = """domain:
+  size: [4.0e-4, 4.0e-4, 4.0e-4]
+  faces:
+    x_min: {{type: no_slip}}
+    x_max: {{type: no_slip}}
+    y_min: {{type: no_slip}}
+    y_max: {{type: no_slip}}
+    z_min: {{type: no_slip}}
+    z_max: {{type: moving_wall, velocity: [{lid}, 0.0, 0.0]}}
+fluid:
+  density: 1000.0
+  viscosity: 1.0e-6
+  dx: 2.5e-5
+  tau: {tau}
+  collision: {collision}
+run:
+  end_time: {end}
+  output_interval: {out}
+"""
+
+# a heavy sphere (radius 3 cells) falling in a periodic 16^3 box: it accelerates until it moves
+# more than half a cell per LBM step (dt = 1/600 s, half a cell per step = 0.03 m/s)
+FALLING = """domain:
+  size: [1.6e-3, 1.6e-3, 1.6e-3]
+fluid:
+  density: 1000.0
+  viscosity: 1.0e-6
+  dx: 1.0e-4
+  tau: 1.0
+bodies:
+  - density: 100000.0
+    spheres:
+      - {center: [8.0e-4, 8.0e-4, 8.0e-4], radius: 3.0e-4}
+rigid:
+  gravity: [0, 0, -0.5]
+run:
+  end_time: 1.0
+  output_interval: 0.00334
+"""
+
+
+def assert_rows_finite(path, min_rows):
+    """The output opens and holds at least min_rows rows, every value finite."""
+    with h5py.File(path, "r") as f:
+        n = len(f["/time"])
+        assert n >= min_rows
+        bad = []
+
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and obj.dtype.kind == "f" and not np.all(np.isfinite(obj[()])):
+                bad.append(name)
+        f.visititems(visit)
+        assert bad == [], "non-finite values in " + ", ".join(bad)
+    return n
+
+
+def trouble_line(stderr):
+    lines = [l for l in stderr.splitlines() if "numerical trouble at step" in l]
+    assert lines, stderr
+    return lines[0]
+
+
+def test_blow_up_stops_at_nan_or_negative_density(coupler, tmp_path):
+    """tau 0.5001 (BGK) under a lid at 300 m/s (0.3 cells per step): the lattice blows up within
+    70 steps. The Mach limit is raised to 1 so that the density detector speaks; the totals read
+    at every output row (every 10 steps) check every cell, so the run stops at the first row
+    after the blow-up, before a NaN is written."""
+    scene = tmp_path / "blowup.yaml"
+    scene.write_text(CAVITY.format(lid=300.0, tau=0.5001, collision="bgk", end=1e-5, out=2.1e-7))
+    out = tmp_path / "blowup.h5"
+    p = run("run", scene, "-o", out, "--quiet", "--set", "fluid.mach_limit=1")
+    assert p.returncode == 1, p.stderr
+    line = trouble_line(p.stderr)
+    assert re.search(r"numerical trouble at step \d+ \(t = [0-9.e+-]+ s\), cell \(\d+, \d+, \d+\) at \([^)]*\) m: "
+                     r"(non-finite density|non-positive density)", line), line
+    assert "fluid.tau" in line  # the remedy
+    assert "holds the output rows written so far" in p.stderr
+    n = assert_rows_finite(out, 3)
+    # the failing step lies after the last row written
+    step = int(re.search(r"at step (\d+)", line).group(1))
+    with h5py.File(out, "r") as f:
+        assert f["/time"][-1] < step * 2.1e-8
+
+
+def test_mach_limit_stops_a_fast_lid(coupler, tmp_path):
+    """A lid at 0.09 m/s = 0.225 cells per step (Mach 0.39) drags the fluid under it above
+    fluid.mach_limit = 0.3 (|u| 0.173 lattice) within 50 steps; with the limit at 0.5 the same
+    run finishes."""
+    scene = tmp_path / "lid.yaml"
+    scene.write_text(CAVITY.format(lid=0.09, tau=0.8, collision="trt", end=0.01, out=6.25e-4))
+    out = tmp_path / "lid.h5"
+    p = run("run", scene, "-o", out, "--quiet")
+    assert p.returncode == 1, p.stderr
+    line = trouble_line(p.stderr)
+    assert re.search(r"cell \(\d+, \d+, 15\) at \([0-9.e+-]+, [0-9.e+-]+, 0.0003875\) m: velocity above the Mach "
+                     r"limit", line), line  # the top layer of cells, under the lid
+    mach = float(re.search(r"= Mach ([0-9.]+)", line).group(1))
+    assert 0.3 <= mach < 0.5 and "fluid.mach_limit 0.3" in line  # printed to 4 digits
+    assert_rows_finite(out, 2)
+    p = run("run", scene, "-o", out, "--quiet", "--set", "fluid.mach_limit=0.5")
+    assert p.returncode == 0, p.stderr
+    assert_rows_finite(out, 17)
+
+
+def test_sphere_faster_than_half_a_cell_per_step_stops(coupler, tmp_path):
+    """The falling sphere passes half a cell per step after ~40 steps: the fluid refuses the move
+    with the sphere, the distance, the step and the remedies (the Mach limit is raised to 1, so
+    that the wake does not stop the run first)."""
+    scene = tmp_path / "falling.yaml"
+    scene.write_text(FALLING)
+    out = tmp_path / "falling.h5"
+    p = run("run", scene, "-o", out, "--quiet", "--set", "fluid.mach_limit=1")
+    assert p.returncode == 1, p.stderr
+    m = re.search(r"sphere 0 moves ([0-9.]+) cells in one step at step (\d+) \(t = [0-9.e+-]+ s\), from "
+                  r"\([^)]*\) m", p.stderr)
+    assert m, p.stderr
+    assert 0.5 < float(m.group(1)) < 0.6
+    assert "limit half a cell per step" in p.stderr and "fluid.tau" in p.stderr and "fluid.dx" in p.stderr
+    n = assert_rows_finite(out, 10)
+    with h5py.File(out, "r") as f:
+        v = f["/spheres/velocity"][:, 0, 2]
+        assert v[-1] < -0.02  # it was falling fast, below the limit, at the last row
