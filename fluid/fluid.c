@@ -7,6 +7,7 @@
  * kernel, or from one array into the other, which then swap (layout.h).
  * Populations are SoA with one ghost layer (grid.h). */
 #include "fluid_internal.h"
+#include "../common/coupling.h"
 
 #include "initial_profile.h"
 #include "lattice.h"
@@ -726,11 +727,20 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
         return log_msg(&fl->log, STATUS_ERROR, "fluid",
                        "%s: sphere %d moves %.3g cells in one step at step %ld (t = %.6g s), from (%.4g, %.4g, "
                        "%.4g) m at %.4g m/s (limit half a cell per step: the boundary links and the refill of "
-                       "uncovered cells cannot follow a larger move): use a smaller time step (fluid.tau closer to "
-                       "0.5, or fluid.dt), more cells (a smaller fluid.dx at the same tau: dt shrinks as dx^2), "
-                       "or a lower velocity",
+                       "uncovered cells cannot follow a larger move): %s%s",
                        fl->path, i, worst, fl->step, fluid_time(fl), (p->c[0] - 0.5) * dx, (p->c[1] - 0.5) * dx,
-                       (p->c[2] - 0.5) * dx, speed * u->dx / u->dt);
+                       (p->c[2] - 0.5) * dx, speed * u->dx / u->dt,
+                       p->kappa_risky >= COUPLING_AUTO_KAPPA
+                           ? "its body is coupled explicitly or without force averaging and is light for its size "
+                             "(feedback number h zeta / m large): a speed that grew by itself is the coupling's instability, not the step's, so "
+                             "first set rigid.coupling: auto (the default) or implicit with fluid.force_averaging: "
+                             "true; otherwise "
+                           : "",
+                       u->tau >= 0.55 ? "use a smaller time step (fluid.tau closer to 0.5, or fluid.dt), more cells "
+                                        "(a smaller fluid.dx at the same tau: dt shrinks as dx^2), or a lower velocity"
+                                      : "use more cells (a smaller fluid.dx at the same tau: dt shrinks as dx^2) or a "
+                                        "lower velocity; fluid.tau is already close to 0.5, where a smaller tau makes "
+                                        "the lattice less stable");
     }
     for (int a = 0; a < 3; a++) {
         p->c[a] = cn[a];

@@ -154,13 +154,17 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
         for (int a = 0; a < 3; a++) {
             cb[a] /= vol;
         }
-        const int averaging = coupling_of_body(s, b).averaging;
+        const body_coupling_t bc = coupling_of_body(s, b);
+        const int averaging = bc.averaging;
+        const double kappa_risky =
+            body->motion == MOTION_FREE && (bc.coupling == COUPLING_EXPLICIT || !bc.averaging) ? bc.kappa : 0.0;
         for (int i = 0; i < body->nspheres; i++, k++) {
             sphere_t *p = &sp->s[k];
             p->body = b;
             p->motion = body->motion;
             p->density_ratio = body->density / s->fluid.density;
             p->averaging = averaging;
+            p->kappa_risky = kappa_risky;
             p->r = body->spheres[i].radius / u->dx;
             double rel[3];
             for (int a = 0; a < 3; a++) {

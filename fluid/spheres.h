@@ -40,6 +40,7 @@ typedef struct {
     double density_ratio;    /* particle / fluid density */
     double cmap[3];          /* centre at the last map stage: a sphere that has not moved keeps its links */
     int averaging;           /* deliver the load averaged over two steps (common/coupling.h) */
+    double kappa_risky;      /* free and not implicit with averaging: the feedback number h zeta / m; else 0 */
     /* period-2 watch (fluid.c): the last three motions (velocity, surface
      * speed), steps in a row that alternate and that grow, warned once */
     double hist[3][6], hist_d[6]; /* motion (v, w r) at steps n, n-1, n-2; the last second difference */

@@ -116,9 +116,10 @@ def fluid_plan(quick):
         rot = [("rotation", s, c, [3, 4, 6], 2) for s in ("cli", "multireflection", "bounce_back") for c in ("trt",)]
         rot += [("rotation", "cli", "bgk", [3, 4, 6], 2)]
     else:
-        drag = [("drag", s, "trt", [3, 4, 5, 6, 8], 8) for s in SCHEMES]
-        drag += [("drag", s, "bgk", [3, 4, 5, 6, 8], 8) for s in ("cli", "multireflection")]
-        drag += [("drag", s, "trt", [12], 2) for s in ("cli", "multireflection")]
+        # radius 12 first: its two runs are the longest (a few minutes each) and run beside the rest
+        drag = [("drag", "cli", "trt", [12], 2)]
+        drag += [("drag", s, "trt", [3, 4, 5, 6, 8], 6) for s in SCHEMES]
+        drag += [("drag", s, "bgk", [3, 4, 5, 6, 8], 6) for s in ("cli", "multireflection")]
         rot = [("rotation", s, c, [3, 4, 6, 8, 12], 3) for s in SCHEMES for c in ("trt",)]
         rot += [("rotation", s, "bgk", [3, 4, 6, 8], 3) for s in ("cli", "multireflection")]
     return drag + rot

@@ -545,6 +545,39 @@ static void test_sphere_speed_limits(void)
     fluid_free(fl);
 }
 
+/* The remedy of a too-fast sphere names the coupling first when the body is
+ * light and not coupled implicitly with averaging (its speed most likely grew
+ * by the added-mass instability), and does not advise a smaller tau when tau
+ * is already close to 1/2. */
+static const char *too_fast_message(coupling_t coupling, int averaging, double tau, test_log_t *tl)
+{
+    scene_t s = test_box(16, 16, 16, tau, COLLISION_TRT);
+    const double c[3] = {8.0, 8.0, 8.0};
+    harness_one_sphere(&s, c, 3.0, MOTION_FREE)->density = 0.5 * s.fluid.density; /* light: kappa ~ 1.3 */
+    s.rigid.coupling = coupling;
+    s.fluid.force_averaging = averaging;
+    log_t l = test_log(tl);
+    fluid_t *fl = NULL;
+    if (fluid_create(&s, &l, &fl) != STATUS_OK) {
+        return "";
+    }
+    const double p[3] = {8.8, 8.0, 8.0}, v[3] = {0, 0, 0};
+    fluid_set_sphere(fl, 0, p, v, v);
+    fluid_free(fl);
+    return tl->last;
+}
+
+static void test_sphere_speed_remedies(void)
+{
+    test_log_t tl;
+    CU_ASSERT(strstr(too_fast_message(COUPLING_EXPLICIT, 0, 0.8, &tl), "first set rigid.coupling: auto") != NULL);
+    CU_ASSERT(strstr(too_fast_message(COUPLING_IMPLICIT, 0, 0.8, &tl), "first set rigid.coupling: auto") != NULL);
+    CU_ASSERT(strstr(too_fast_message(COUPLING_AUTO, -1, 0.8, &tl), "rigid.coupling") == NULL);
+    CU_ASSERT(strstr(tl.last, "fluid.tau closer to 0.5") != NULL);
+    CU_ASSERT(strstr(too_fast_message(COUPLING_AUTO, -1, 0.52, &tl), "fluid.tau closer to 0.5") == NULL);
+    CU_ASSERT(strstr(tl.last, "fluid.tau is already close to 0.5") != NULL && strstr(tl.last, "fluid.dx") != NULL);
+}
+
 /* ---- numerical trouble next to a sphere --------------------------------- */
 
 /* A NaN in a fluid cell next to the surface enters the sphere's load in the
@@ -594,6 +627,8 @@ void spheres_register_tests(int validate)
     CU_add_test(s, "shift across a periodic face: same force", test_shift_across_periodic_face);
     CU_add_test(s, "state save/restore: bit-identical continuation", test_state_restore_bit_identical);
     CU_add_test(s, "a sphere moving more than half a cell per step is refused", test_sphere_speed_limits);
+    CU_add_test(s, "a too-fast sphere's remedy: the coupling first for a light body, no smaller tau near 1/2",
+                test_sphere_speed_remedies);
     CU_add_test(s, "numerical trouble: a NaN next to a sphere stops at its load", test_nan_load_detected);
     CU_add_test(s, "drag coefficients = the load's one-step response to v and w", test_drag_coefficients);
     CU_add_test(s, "coupling: geometric drag estimate = measured coefficient", test_coupling_drag_estimate);

@@ -465,7 +465,8 @@ def test_period_two_oscillation_detected_and_remedied(coupler, tmp_path):
     w = lines[warnings[0]]
     assert "sphere 0 (radius 3 cells, density ratio 0.3)" in w and "step " in w and "growing" in w
     assert "rigid.coupling: auto" in w and "fluid.force_averaging" in w
-    failure = [i for i, l in enumerate(lines) if "cells in one step" in l and "limit 1 cell" in l]
+    # whichever detector stops it: the sphere's half a cell per step, or the Mach limit of the flow it drives
+    failure = [i for i, l in enumerate(lines) if l.startswith("error:")]
     assert failure and warnings[0] < failure[0], p.stderr  # the cause is named before the failure
     p, alt_avg = force_run(3, 300.0)
     assert p.returncode == 0 and "alternated every step" not in p.stderr, p.stderr
