@@ -513,6 +513,24 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
  * the cell holds), a non-finite velocity, and a velocity above the Mach
  * limit (the lattice has one speed of sound c_s = 1/sqrt(3); near c_s the
  * compressibility error grows as Ma^2 and BGK/TRT lose stability). */
+/* The first remedy when a light body is coupled explicitly or without force
+ * averaging (kappa_risky): its speed, and the flow it drives, grow by the
+ * added-mass instability (README "Coupling"), whatever the step. */
+#define RISKY_COUPLING_REMEDY                                                                                         \
+    "set rigid.coupling: auto (the default) or implicit with fluid.force_averaging: true first: a light body "   \
+    "(feedback number h zeta / m large) is coupled explicitly or without force averaging, and a speed that grows " \
+    "by itself is that coupling's instability, not the step's"
+
+static int any_risky_coupling(const fluid_t *fl)
+{
+    for (int i = 0; i < fl->spheres.n; i++) {
+        if (fl->spheres.s[i].kappa_risky >= COUPLING_AUTO_KAPPA) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
 enum { TROUBLE_NONE, TROUBLE_MACH, TROUBLE_VELOCITY, TROUBLE_DENSITY, TROUBLE_DENSITY_NAN };
 static const char *const TROUBLE_CAUSES[] = {
     "", "velocity above the Mach limit fluid.mach_limit", "non-finite velocity (NaN or Inf)",
@@ -563,9 +581,10 @@ static status_t trouble_report(const fluid_t *fl, double key, double mach_limit)
                                "(fluid.collision: trt), more cells (fluid.dx), or lower the flow speed";
     return log_msg(&fl->log, STATUS_ERROR, "fluid",
                    "%s: numerical trouble at step %ld (t = %.6g s), cell (%d, %d, %d) at (%.4g, %.4g, %.4g) m: "
-                   "%s (density %.6g, |u| = %.4g lattice = Mach %.4g, fluid.mach_limit %.4g); %s",
+                   "%s (density %.6g, |u| = %.4g lattice = Mach %.4g, fluid.mach_limit %.4g); %s%s",
                    fl->path, fl->step, fluid_time(fl), x - 1, y - 1, z - 1, (x - 0.5) * dx, (y - 0.5) * dx,
-                   (z - 0.5) * dx, TROUBLE_CAUSES[cause], r, umag, umag / sqrt(LB_CS2), mach_limit, remedy);
+                   (z - 0.5) * dx, TROUBLE_CAUSES[cause], r, umag, umag / sqrt(LB_CS2), mach_limit,
+                   any_risky_coupling(fl) ? RISKY_COUPLING_REMEDY "; otherwise " : "", remedy);
 }
 
 enum { DIAG_NV = 10 }; /* mass, momentum 3, kinetic, umax, peak 3, trouble key */
@@ -730,12 +749,7 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
                        "uncovered cells cannot follow a larger move): %s%s",
                        fl->path, i, worst, fl->step, fluid_time(fl), (p->c[0] - 0.5) * dx, (p->c[1] - 0.5) * dx,
                        (p->c[2] - 0.5) * dx, speed * u->dx / u->dt,
-                       p->kappa_risky >= COUPLING_AUTO_KAPPA
-                           ? "its body is coupled explicitly or without force averaging and is light for its size "
-                             "(feedback number h zeta / m large): a speed that grew by itself is the coupling's instability, not the step's, so "
-                             "first set rigid.coupling: auto (the default) or implicit with fluid.force_averaging: "
-                             "true; otherwise "
-                           : "",
+                       p->kappa_risky >= COUPLING_AUTO_KAPPA ? RISKY_COUPLING_REMEDY "; otherwise " : "",
                        u->tau >= 0.55 ? "use a smaller time step (fluid.tau closer to 0.5, or fluid.dt), more cells "
                                         "(a smaller fluid.dx at the same tau: dt shrinks as dx^2), or a lower velocity"
                                       : "use more cells (a smaller fluid.dx at the same tau: dt shrinks as dx^2) or a "
