@@ -573,10 +573,18 @@ static status_t trouble_report(const fluid_t *fl, double key, double mach_limit)
     double r, u[3];
     local_moments(fl, &pf, i, &r, u);
     const double umag = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]), dx = fl->units.dx;
+    /* the lattice velocity of a given flow is U dt / dx = U (tau - 1/2) dx / (3 nu): a smaller tau
+     * or a smaller dx lowers it, but near tau = 1/2 a smaller tau makes the lattice less stable */
     const char *remedy = cause == TROUBLE_MACH
-                             ? "lower the flow speed in lattice units: a smaller time step (fluid.tau closer to 0.5, "
-                               "or fluid.dt), or slower walls, inlets, body force or bodies; raise fluid.mach_limit "
-                               "(at most 1) only if this speed is meant"
+                             ? (fl->units.tau >= 0.55
+                                    ? "lower the flow speed in lattice units: a smaller time step (fluid.tau closer "
+                                      "to 0.5, or fluid.dt), more cells (fluid.dx), or slower walls, inlets, body "
+                                      "force or bodies; raise fluid.mach_limit (at most 1) only if this speed is "
+                                      "meant"
+                                    : "lower the flow speed in lattice units: more cells (a smaller fluid.dx; "
+                                      "fluid.tau is already close to 0.5, where a smaller tau makes the lattice less "
+                                      "stable), or slower walls, inlets, body force or bodies; raise "
+                                      "fluid.mach_limit (at most 1) only if this speed is meant")
                              : "the lattice became unstable: raise fluid.tau (or fluid.dt) away from 0.5, use TRT "
                                "(fluid.collision: trt), more cells (fluid.dx), or lower the flow speed";
     return log_msg(&fl->log, STATUS_ERROR, "fluid",

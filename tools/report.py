@@ -446,7 +446,8 @@ contact time is a tenth of the communication step (reference CVODE BDF at rtol 1
 sphere falling against linear (Stokes) drag with the load set by the caller once per step, as
 a fluid coupling sets it (exact v = v_t (1 − e^(−t/τ))). Top row: error against wall time;
 bottom row: against force evaluations (a right-hand side of CVODE, a sub-step of Verlet; CVODE's
-finite-difference Jacobians included). Failed runs (refused as unstable or CVODE errors) are left
+finite-difference Jacobians included, and with contacts one more per CVODE internal step for the
+contact energy watch, `rigid/contact_watch.c`). Failed runs (refused as unstable or CVODE errors) are left
 out: {failed}. Data: `rigid.csv`.
 
 {table}

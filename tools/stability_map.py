@@ -35,7 +35,8 @@ a sphere at tau 0.51 needs thousands of steps to reach u). A case that is not st
 again as a control with the same motion prescribed (no coupling at all): when the control
 fails too, the limit is the lattice's at that tau and speed ("fluid limit"), not the coupling's.
 
-Slices (not the full product, which is ~900 cases per coupling):
+Slices (not the full product, which is ~900 cases per coupling; a fourth, the flow's speed:
+a free sphere in a plane Couette flow with walls at +-u, tau x u, control: the sphere fixed):
 - density ratio x tau at radius 3 cells, u = 0.05: the coupling's limit (the added-mass
   instability of explicitly coupled light particles, which Ladd & Verberg, J. Stat. Phys. 104
   (2001) 1191, remove with an implicit particle update) against the lattice's (tau -> 1/2);
@@ -53,7 +54,8 @@ run), for Verlet and CVODE BDF:
   below one cell: contacts with lubrication (the default), without it, and no contact model.
 Every case for the default coupling (`rigid.coupling: auto`) and the alternatives: implicit and
 explicit, each with and without `fluid.force_averaging`; 600 steps (contacts 400). Quick mode:
-auto and explicit only (auto only for velocity x tau), six density ratios in the radius slice,
+auto and explicit only (auto only for velocity x tau and the flow slice; the full map runs the flow
+slice for auto and explicit), six density ratios in the radius slice,
 contact times 10, 1, 0.1 steps, 300 steps (contacts 200).
 
 Usage: tools/stability_map.py OUTDIR [--quick] [--jobs N] [--coupler PATH]
@@ -89,6 +91,7 @@ TAUS = [0.5001, 0.501, 0.51, 0.55, 1.0, 2.0, 3.0]
 RATIOS = [0.1, 0.3, 0.5, 1.0, 1.2, 2.0, 10.0, 1000.0]
 SPEEDS = [0.01, 0.05, 0.1, 0.2, 0.3]
 RADII = [1.5, 2.0, 3.0, 5.0]
+FLOW_SLICE = "flow velocity x tau"  # the free-sphere slice whose speed is the flow's (shear_scene)
 VERDICTS = ["stable", "oscillates", "detected", "crashed", "timed out"]
 COLOURS = {"stable": "#4daf4a", "oscillates": "#ff9f1c", "detected": "#e41a1c", "crashed": "#222222",
            "timed out": "#9e9e9e"}
@@ -152,6 +155,32 @@ def case_scene(a_cells, ratio, tau, u_lat, steps, start="rest", prescribed=False
     return FREE.format(L=L, rho_f=RHO_F, nu=NU, dx=k["dx"], tau=tau, fb=fb, rho_p=ratio * RHO_F, motion=motion,
                        v0=v0, c=L / 2, a=k["a"], g=g, t_end=1.001 * steps * k["dt"],
                        t_out=steps * k["dt"] / 10)
+
+
+SHEAR = """domain:
+  size: [{L!r}, {L!r}, {L!r}]
+  faces: {{z_min: {{type: moving_wall, velocity: [{mu!r}, 0, 0]}}, z_max: {{type: moving_wall, velocity: [{u!r}, 0, 0]}}}}
+fluid: {{density: {rho_f!r}, viscosity: {nu!r}, dx: {dx!r}, tau: {tau!r}, initial_profile: plane_channel}}
+bodies:
+  - density: {rho_p!r}
+    motion: {motion}
+    spheres:
+      - {{center: [{c!r}, {c!r}, {cz!r}], radius: {a!r}}}
+rigid: {{gravity: [0, 0, 0]}}
+run: {{end_time: {t_end!r}, output_interval: {t_out!r}}}
+"""
+
+
+def shear_scene(a_cells, ratio, tau, u_lat, steps, fixed=False):
+    """Scene text of the flow slice: a sphere (free, or fixed for the control) a quarter radius
+    off the centre of a plane Couette flow between no-slip walls moving at +-u_lat (lattice), x
+    and y periodic, a box of 8 radii started in the steady shear profile: the speed of the flow
+    relative to the grid is u_lat at the walls, whatever the particle does."""
+    dt = (tau - 0.5) * DX * DX / (3.0 * NU)
+    L, a, u = 8 * a_cells * DX, a_cells * DX, u_lat * DX / dt
+    return SHEAR.format(L=L, mu=-u, u=u, rho_f=RHO_F, nu=NU, dx=DX, tau=tau, rho_p=ratio * RHO_F,
+                        motion="fixed" if fixed else "free", c=L / 2, cz=L / 2 + 0.25 * a, a=a,
+                        t_end=1.001 * steps * dt, t_out=steps * dt / 10)
 
 
 def control_scene(a_cells, ratio, tau, u_lat, steps, start="rest"):
@@ -222,6 +251,8 @@ class Case:
 
     def scene(self):
         p = self.p
+        if self.group == "free:" + FLOW_SLICE:
+            return shear_scene(p["radius"], p["ratio"], p["tau"], p["u"], self.steps)
         if self.group.startswith("free"):
             return case_scene(p["radius"], p["ratio"], p["tau"], p["u"], self.steps, start="terminal")
         return wall_scene(self.group, p, self.steps)
@@ -466,6 +497,10 @@ def plan(quick):
         for u in SPEEDS:
             for t in TAUS:
                 free("velocity x tau", 3.0, 2.0, t, u, c)
+    for c in (["auto"] if quick else few):
+        for u in SPEEDS:
+            for t in TAUS:
+                free(FLOW_SLICE, 3.0, 1.2, t, u, c)
     for c in (few if quick else couplings_all):
         for a in RADII:
             for r in ([0.1, 0.3, 0.5, 1.2, 2.0, 10.0] if quick else RATIOS):
@@ -507,16 +542,22 @@ def run_cases(cases, coupler, jobs, timeout):
 
 def run_controls(cases, coupler, jobs, timeout):
     """The prescribed-motion control of every free-sphere case that is not stable, once per
-    (radius, tau, u): it does not depend on the density ratio or the coupling."""
-    keys = sorted({(c.p["radius"], c.p["tau"], c.p["u"], c.steps) for c in cases
-                   if c.group.startswith("free") and c.verdict != "stable"})
-    res = _pmap(lambda k: run_text(control_scene(k[0], 2.0, k[1], k[2], k[3], start="terminal"), [], k[3], coupler,
-                                   timeout), keys, jobs)
+    (radius, tau, u): it does not depend on the density ratio or the coupling. For the flow
+    slice the control holds the sphere fixed in the same flow."""
+    def key(c):
+        return (c.group == "free:" + FLOW_SLICE, c.p["radius"], c.p["tau"], c.p["u"], c.steps)
+
+    def control_text(k):
+        if k[0]:   # the flow slice: the same flow past the sphere held fixed
+            return shear_scene(k[1], 1.0, k[2], k[3], k[4], fixed=True)
+        return control_scene(k[1], 2.0, k[2], k[3], k[4], start="terminal")
+    keys = sorted({key(c) for c in cases if c.group.startswith("free") and c.verdict != "stable"})
+    res = _pmap(lambda k: run_text(control_text(k), [], k[4], coupler, timeout), keys, jobs)
     control = dict(zip(keys, res))
     for c in cases:
         c.control = ""
         if c.group.startswith("free") and c.verdict != "stable":
-            v = control[(c.p["radius"], c.p["tau"], c.p["u"], c.steps)]
+            v = control[key(c)]
             c.control = "fluid limit" if v[0] in ("detected", "crashed") else "coupling"
 
 
@@ -648,12 +689,13 @@ def free_figure(path, cases, slice_name, xkey, ykey, xlabel, ylabel, fixed):
     couplings = [k for k in COUPLINGS if any(c.p["coupling"] == k for c in sel)]
     xs = sorted({c.p[xkey] for c in sel})
     ys = sorted({c.p[ykey] for c in sel})
-    fig, axs = plt.subplots(1, len(couplings), figsize=(3.3 * len(couplings) + 0.8, 0.35 * len(ys) + 2.2),
+    fig, axs = plt.subplots(1, len(couplings), figsize=(max(3.3 * len(couplings) + 0.8, 6.5), 0.35 * len(ys) + 2.2),
                             squeeze=False)
     for ax, k in zip(axs[0], couplings):
         cells = {(c.p[xkey], c.p[ykey]): c for c in sel if c.p["coupling"] == k}
         _grid(ax, cells, xs, ys, xlabel, ylabel, "coupling: %s%s" % (k, " (default)" if k == "auto" else ""))
-    fig.suptitle("Free sphere in a periodic box: %s (%s)" % (slice_name, fixed), fontsize=10)
+    fig.suptitle("Free sphere in %s: %s (%s)" % ("a plane shear flow" if slice_name == FLOW_SLICE else
+                                                   "a periodic box", slice_name, fixed), fontsize=10)
     _legend(fig)
     fig.tight_layout(rect=(0, 0.12, 1, 0.95))
     fig.savefig(path, dpi=110)
@@ -701,7 +743,8 @@ def _fmt_counts(total, n):
 def _where(c):
     p = c.p
     if c.group.startswith("free"):
-        return "a %g, ratio %g, tau %g, u %g, %s" % (p["radius"], p["ratio"], p["tau"], p["u"], p["coupling"])
+        return "%sa %g, ratio %g, tau %g, u %g, %s" % ("shear flow, " if c.group == "free:" + FLOW_SLICE else "",
+                                                      p["radius"], p["ratio"], p["tau"], p["u"], p["coupling"])
     return "%s %s, %s, %s" % (c.group, p["variant"], p["integrator"], p["coupling"])
 
 
@@ -726,15 +769,15 @@ def markdown(cases, figures, quick, wall):
         "density ratio x tau at radius 3 cells and u = 0.05 (the coupling's limit for light particles against the "
         "lattice's as tau -> 1/2), lattice velocity x tau at density ratio 2, radius 3 (the lattice's limit: "
         "cell Reynolds number u/nu and Mach number, for a particle the coupling handles), radius x density ratio "
-        "at tau 0.6, u = 0.05 (how small and how light a sphere may be). The flow's velocity is the sphere's "
-        "relative to the fluid at rest far from it: the speed relative to the grid is what the lattice "
-        "limits, and the sphere's sets it here (a flow past a fixed sphere is the same problem in the sphere's "
-        "frame, up to the lattice's lack of Galilean invariance at finite Mach number)." % (free[0].steps if free else 0))
+        "at tau 0.6, u = 0.05 (how small and how light a sphere may be). In these three the speed is the "
+        "sphere's, relative to fluid at rest far from it. A fourth slice makes it the flow's: a free sphere "
+        "(ratio 1.2, radius 3) in a plane Couette flow whose walls move at +-u, started in the steady "
+        "profile, tau x u; its control holds the sphere fixed in the same flow." % (free[0].steps if free else 0))
     L.append("")
     for f in figures:
         L.append("![%s](%s)" % (f[:-4].replace("_", " "), f))
         L.append("")
-    for name in ("ratio x tau", "velocity x tau", "radius x ratio"):
+    for name in ("ratio x tau", "velocity x tau", "radius x ratio", FLOW_SLICE):
         sub = [c for c in free if c.group == "free:" + name]
         if not sub:
             continue
@@ -913,7 +956,9 @@ def run_map(outdir, quick, coupler=COUPLER, jobs=2):
             ("ratio x tau", "tau", "ratio", "tau", "density ratio rho_p / rho_f", "radius 3 cells, u = 0.05"),
             ("velocity x tau", "tau", "u", "tau", "lattice velocity u (cells per step)", "density ratio 2, radius 3"),
             ("radius x ratio", "ratio", "radius", "density ratio rho_p / rho_f", "radius (cells)",
-             "tau 0.6, u = 0.05")]:
+             "tau 0.6, u = 0.05"),
+            (FLOW_SLICE, "tau", "u", "tau", "wall speed of the shear flow (cells per step)",
+             "Couette flow, free sphere of ratio 1.2, radius 3")]:
         name = "stability_" + slice_name.replace(" x ", "_") + ".png"
         free_figure(os.path.join(outdir, name), cases, slice_name, xkey, ykey, xl, yl, fixed)
         figures.append(name)

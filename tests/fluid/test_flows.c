@@ -307,10 +307,10 @@ static void test_inlet_outlet_channel(void)
 /* A 12 x 10 x 8 box at rest (dx = 1 m: positions in m are cell centres
  * i + 1/2) with cell (3, 4, 5) given density rho and velocity (ux, 0, 0):
  * the status of fluid_check and of the totals' pass, and the messages. */
-static void trouble(double rho, double ux, double mach_limit, status_t *check, status_t *totals, test_log_t *tl,
-                    char *msg_check, size_t n)
+static void trouble_tau(double tau, double rho, double ux, double mach_limit, status_t *check, status_t *totals,
+                        test_log_t *tl, char *msg_check, size_t n)
 {
-    scene_t s = test_box(12, 10, 8, 0.8, COLLISION_TRT);
+    scene_t s = test_box(12, 10, 8, tau, COLLISION_TRT);
     log_t l = test_log(tl);
     fluid_t *fl = NULL;
     CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &fl), STATUS_OK);
@@ -332,6 +332,12 @@ static void trouble(double rho, double ux, double mach_limit, status_t *check, s
     free(r);
     free(u);
     fluid_free(fl);
+}
+
+static void trouble(double rho, double ux, double mach_limit, status_t *check, status_t *totals, test_log_t *tl,
+                    char *msg_check, size_t n)
+{
+    trouble_tau(0.8, rho, ux, mach_limit, check, totals, tl, msg_check, n);
 }
 
 static void test_trouble_detected(void)
@@ -360,6 +366,12 @@ static void test_trouble_detected(void)
     CU_ASSERT_PTR_NOT_NULL(strstr(msg, "Mach limit"));
     CU_ASSERT_PTR_NOT_NULL(strstr(msg, "Mach 0.3464"));
     CU_ASSERT_PTR_NOT_NULL(strstr(msg, "cell (3, 4, 5) at (3.5, 4.5, 5.5) m"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "fluid.tau closer to 0.5"));
+    /* near tau = 1/2 the remedy is more cells, not a smaller tau */
+    trouble_tau(0.52, 1.0, 0.2, 0.3, &check, &totals, &tl, msg, sizeof msg);
+    CU_ASSERT_EQUAL(check, STATUS_ERROR);
+    CU_ASSERT_PTR_NULL(strstr(msg, "fluid.tau closer to 0.5"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(msg, "more cells (a smaller fluid.dx"));
     /* ... and below a limit of 0.4; a healthy box passes */
     trouble(1.0, 0.2, 0.4, &check, &totals, &tl, msg, sizeof msg);
     CU_ASSERT_EQUAL(check, STATUS_OK);
