@@ -119,9 +119,9 @@ def fluid_plan(quick):
         # radius 12 first: its two runs are the longest (a few minutes each) and run beside the rest
         drag = [("drag", "cli", "trt", [12], 2)]
         drag += [("drag", s, "trt", [3, 4, 5, 6, 8], 6) for s in SCHEMES]
-        drag += [("drag", s, "bgk", [3, 4, 5, 6, 8], 6) for s in ("cli", "multireflection")]
+        drag += [("drag", s, "bgk", [3, 4, 5, 6, 8], 6) for s in SCHEMES]
         rot = [("rotation", s, c, [3, 4, 6, 8, 12], 3) for s in SCHEMES for c in ("trt",)]
-        rot += [("rotation", s, "bgk", [3, 4, 6, 8], 3) for s in ("cli", "multireflection")]
+        rot += [("rotation", s, "bgk", [3, 4, 6, 8], 3) for s in SCHEMES]
     return drag + rot
 
 
@@ -245,7 +245,7 @@ def section_fluid(out, tmp, quick, jobs):
     radii = [3, 4, 5] if quick else [3, 4, 6, 8]
     # multireflection at tau 0.8: in place it is refused at tau 1 (omega- = 1 with Lambda 3/16)
     sched = [(a, s, 1.0 if s != "multireflection" else 0.8, "fluid")
-             for s in (("cli", "multireflection") if quick else ("cli", "multireflection", "bounce_back"))
+             for s in (("cli", "multireflection") if quick else SCHEMES)
              for a in radii]
     settle = pool_map(lambda it: run_settling(it, tmp), sched, jobs)
     write_csv(os.path.join(out, "settling_periodic.csv"), settle,
