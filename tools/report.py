@@ -206,27 +206,28 @@ def settling_k(h5, k, tail=0.2):
     n0 = int(len(t) * (1 - tail))
     urel = (P[n0:] / k["rho"] - vp[n0:] * (k["L"] ** 3 - k["V"])) / k["L"] ** 3
     Kv = abs(k["fb"]) * k["L"] ** 3 / (6 * math.pi * k["rho"] * k["nu"] * k["a"] * abs(np.mean(urel)))
-    return Kv / SA_K_HALF - 1.0, vp
+    return Kv / SA_K_HALF - 1.0
 
 
-def run_settling(item, tmp, sets=()):
-    a, scheme, tau, label = item
-    text, k = settling_scene(a, tau)
-    base = os.path.join(tmp, "settle_%s_%g_%s" % (scheme, a, label))
+def run_scene(text, name, sets, tmp):
+    """Writes the scene text to TMP/NAME.yaml and runs it on one thread with the --set options:
+    (CompletedProcess, seconds, path of its output)."""
+    base = os.path.join(tmp, name)
     with open(base + ".yaml", "w") as f:
         f.write(text)
-    args = [COUPLER, "run", base + ".yaml", "-o", base + ".h5", "--quiet", "--set", "fluid.boundary_scheme=" + scheme]
-    for s in sets:
-        args += ["--set", s]
+    args = [COUPLER, "run", base + ".yaml", "-o", base + ".h5", "--quiet"] + [x for s in sets for x in ("--set", s)]
     p, secs = sh(args, env=ONE_THREAD, check=False)
+    return p, secs, base + ".h5"
+
+
+def run_settling(item, tmp):
+    a, scheme, tau, label = item
+    text, k = settling_scene(a, tau)
+    p, secs, h5 = run_scene(text, "settle_%s_%g_%s" % (scheme, a, label), ["fluid.boundary_scheme=" + scheme], tmp)
     if p.returncode != 0:
         return dict(scheme=scheme, radius=a, tau=tau, label=label, err=float("nan"), seconds=secs,
                     status=p.stderr.strip().splitlines()[-1] if p.stderr.strip() else "failed")
-    err, _ = settling_k(base + ".h5", k)
-    with h5py.File(base + ".h5", "r") as f:
-        wr = float(f.attrs["wall_time_rigid"])
-    return dict(scheme=scheme, radius=a, tau=tau, label=label, err=err, seconds=secs, rigid_seconds=wr, status="ok",
-                h5=base + ".h5")
+    return dict(scheme=scheme, radius=a, tau=tau, label=label, err=settling_k(h5, k), seconds=secs, status="ok")
 
 
 def fluid_conclusions(drag, orders):
@@ -315,7 +316,7 @@ def section_fluid(out, tmp, quick, jobs):
     axs[2].legend(fontsize=7)
     figs.append(save(fig, out, "fluid_accuracy.png"))
 
-    def table(data, what):
+    def table(data):
         lines = ["| scheme | op | radius | places | mean | worst | spread | s/run |", "|---|---|---|---|---|---|---|---|"]
         for d in data:
             lines.append("| %s | %s | %g | %d | %+.2f %% | %.2f %% | %.2f %% | %.2f |" % (
@@ -357,7 +358,7 @@ TRT with Λ = 3/16 does not depend on τ; BGK runs are at τ 0.8. Data: `drag_po
 {orders}
 
 **What to conclude.** {conclude}
-""".format(ksa=SA_K_HALF, npos=max(d["n"] for d in drag), drag=table(drag, "drag"), rot=table(rot, "rot"),
+""".format(ksa=SA_K_HALF, npos=max(d["n"] for d in drag), drag=table(drag), rot=table(rot),
            settle="\n".join(settle_lines), orders="\n".join(order_lines),
            conclude=fluid_conclusions(drag, orders))
     return md, figs
@@ -398,20 +399,14 @@ def section_integrators(out, tmp, quick, jobs):
     runs.append(("reference", ["rigid.integrator=cvode", "rigid.cvode_method=bdf", "rigid.rtol=1e-10",
                                "rigid.atol=1e-14"]))
     t_diff = 1.0 if quick else 2.0
-    text, k = settling_scene(a, 1.0, ratio=2.0, t_diff=t_diff)
+    text, _ = settling_scene(a, 1.0, ratio=2.0, t_diff=t_diff)
 
     def one(item):
         label, sets = item
-        base = os.path.join(tmp, "integ_" + label)
-        with open(base + ".yaml", "w") as f:
-            f.write(text)
-        args = [COUPLER, "run", base + ".yaml", "-o", base + ".h5", "--quiet"]
-        for s in sets:
-            args += ["--set", s]
-        p, secs = sh(args, env=ONE_THREAD, check=False)
+        p, secs, h5 = run_scene(text, "integ_" + label, sets, tmp)
         if p.returncode != 0:
             return dict(label=label, status="failed", seconds=secs)
-        with h5py.File(base + ".h5", "r") as f:
+        with h5py.File(h5, "r") as f:
             return dict(label=label, status="ok", seconds=secs, rigid_seconds=float(f.attrs["wall_time_rigid"]),
                         v=f["spheres/velocity"][:, 0, 2].copy())
     res = pool_map(one, runs, jobs)
