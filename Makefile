@@ -14,8 +14,14 @@ endif
 SAN_ENV  := $(if $(filter 1,$(SAN)),ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1,)
 VENV     := .venv
 PY       := $(VENV)/bin/python
-HDF5     := hdf5-serial
-PKGS     := $(HDF5) libcyaml yaml-0.1 cunit
+# One flavour for every target: Open MPI and the parallel HDF5 built on it
+# (Debian's libhdf5-openmpi-dev, pkg-config hdf5-openmpi, headers in
+# /usr/include/hdf5/openmpi). The serial HDF5 (hdf5-serial) is never
+# included or linked, so the two cannot collide. A process not started by
+# mpirun never initialises MPI and runs as before (fluid/decomp.c).
+HDF5     := hdf5-openmpi
+MPI      := ompi-c
+PKGS     := $(HDF5) $(MPI) libcyaml yaml-0.1 cunit
 WERROR   ?= $(if $(CI),-Werror,)
 CFLAGS   := -std=c11 -D_POSIX_C_SOURCE=200809L -O3 -march=native -g -fopenmp -fPIC \
             -Wall -Wextra -Wpedantic $(WERROR) $(SANFLAGS) $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
@@ -117,8 +123,9 @@ drag-report: deps
 
 # FMUs: the same sources built again with hidden visibility, so that a
 # shared library exports the fmi2* entry points only; common/fmi_adapter.c
-# is compiled once per model (-DFMI_MODEL). The fluid links the serial HDF5
-# for its field snapshots (common/h5fields.c).
+# is compiled once per model (-DFMI_MODEL). The fluid links Open MPI and the
+# parallel HDF5 for its field snapshots (common/h5fields.c); it uses MPI only
+# when its master has initialised it (fluid/decomp.c).
 FMU_FLUID_SRC := $(COMMON_SRC) common/fmi_vars.c common/h5fields.c \
                  $(filter-out fluid/kernel.c fluid/kernel_single.c,$(FLUID_SRC)) fluid/kernel_dispatch.c fluid/fluid_fmi.c
 FMU_RIGID_SRC := $(COMMON_SRC) common/fmi_vars.c $(RIGID_SRC) rigid/rigid_fmi.c
@@ -127,7 +134,7 @@ FMU_RIGID_SRC := $(COMMON_SRC) common/fmi_vars.c $(RIGID_SRC) rigid/rigid_fmi.c
 FMU_ARCH      := $(if $(filter x86_64,$(shell uname -m)),-march=x86-64 -mtune=generic,)
 FMU_CFLAGS    := $(filter-out -march=native,$(CFLAGS)) $(FMU_ARCH) -fvisibility=hidden
 FMU_LDFLAGS   := -shared -Wl,-z,defs -Wl,-z,nodelete
-FMU_FLUID_LIBS := $(shell pkg-config --libs $(HDF5) libcyaml yaml-0.1 2>/dev/null) -lm
+FMU_FLUID_LIBS := $(shell pkg-config --libs $(HDF5) $(MPI) libcyaml yaml-0.1 2>/dev/null) -lm
 FMU_RIGID_LIBS := $(shell pkg-config --libs libcyaml yaml-0.1 2>/dev/null) -lsundials_cvode -lsundials_nvecserial -lm
 fmu_obj = $(patsubst %.c,$(BUILD)/fmu/obj/%.o,$(1))
 
