@@ -143,6 +143,7 @@ typedef struct {
     double output_interval; /* s */
     int fields;             /* write field snapshots */
     double field_interval;  /* s; output_interval when not given */
+    int ranks[3];           /* MPI ranks along x, y, z (fluid/decomp.c); 0: chosen by MPI_Dims_create */
 } scene_run_t;
 
 typedef struct scene {

@@ -438,6 +438,13 @@ static void build_run(ctx_t *c, const raw_run_t *r, scene_run_t *u)
     if (r->field_interval != NULL) {
         scene_check_range(c, "run.field_interval", u->field_interval, 0, INFINITY, LO_OPEN);
     }
+    for (int a = 0; a < 3; a++) {
+        u->ranks[a] = 0;
+        if (r->ranks != NULL) {
+            static const char *const keys[3] = {"run.ranks[0]", "run.ranks[1]", "run.ranks[2]"};
+            u->ranks[a] = scene_check_int(c, keys[a], r->ranks[a], 1, 65536) ? (int)r->ranks[a] : 1;
+        }
+    }
 }
 
 /* Each check of scene_check.c runs once the values it relates are usable (a

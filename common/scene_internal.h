@@ -113,6 +113,7 @@ typedef struct {
     double *output_interval;
     int *fields;
     double *field_interval;
+    double *ranks;
 } raw_run_t;
 
 typedef struct {

@@ -181,6 +181,7 @@ static const cyaml_schema_field_t RUN_FIELDS[] = {
     CYAML_FIELD_FLOAT_PTR("output_interval", OPT, raw_run_t, output_interval),
     ENUM_FIELD("fields", raw_run_t, fields, BOOL_NAMES),
     CYAML_FIELD_FLOAT_PTR("field_interval", OPT, raw_run_t, field_interval),
+    CYAML_FIELD_SEQUENCE_FIXED("ranks", OPT_PTR, raw_run_t, ranks, &SCHEMA_DOUBLE, 3),
     CYAML_FIELD_END,
 };
 

@@ -15,6 +15,7 @@
 #include "../common/scene.h"
 #include "../fluid/units.h"
 #include "bench.h"
+#include "mpi_env.h"
 #include "export.h"
 #include "resources.h"
 #include "run.h"
@@ -198,13 +199,36 @@ static void fmu_lib_dir(char *buf, size_t n)
     strncat(buf, "/fmu", n - strlen(buf) - 1);
 }
 
+/* On ranks other than 0 only errors are printed, with their rank: rank 0
+ * prints everything that all ranks say alike. */
+static void log_rank(void *ctx, status_t level, const char *category, const char *msg)
+{
+    if (level >= STATUS_ERROR) {
+        fprintf(stderr, "[rank %d] ", mpi_env_rank());
+        log_stderr(ctx, level, category, msg);
+    }
+}
+
+static int run_main(int argc, char **argv);
+
 int main(int argc, char **argv)
+{
+    if (mpi_env_init(&argc, &argv) != 0) {
+        return 1;
+    }
+    if (mpi_env_rank() > 0 && freopen("/dev/null", "w", stdout) == NULL) {
+        fprintf(stderr, "[rank %d] cannot silence the summary of this rank\n", mpi_env_rank());
+    }
+    return mpi_env_finish(run_main(argc, argv));
+}
+
+static int run_main(int argc, char **argv)
 {
     if (argc < 2) {
         return usage(NULL);
     }
     const char *cmd = argv[1];
-    log_t log = {log_stderr, NULL};
+    log_t log = {mpi_env_rank() == 0 ? log_stderr : log_rank, NULL};
     if (strcmp(cmd, "-h") == 0 || strcmp(cmd, "--help") == 0) {
         usage(NULL);
         return 0;

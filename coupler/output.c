@@ -47,6 +47,7 @@ enum {
 };
 
 struct output {
+    int off; /* a rank other than 0 under MPI: writes nothing (output_open with path NULL) */
     char *path;
     log_t log;
     hid_t file;
@@ -311,8 +312,12 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
                      const log_t *log, output_t **out)
 {
     output_t *o;
-    status_t st = output_new(path, layout, log, &o);
-    if (st != STATUS_OK) {
+    status_t st = output_new(path != NULL ? path : "", layout, log, &o);
+    if (st != STATUS_OK || path == NULL) {
+        if (o != NULL) {
+            o->off = 1;
+        }
+        *out = o;
         return st;
     }
     o->file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
@@ -361,6 +366,9 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
 
 status_t output_save_rows(output_t *o, const char *path, const char *prefix)
 {
+    if (o->off) {
+        return STATUS_OK;
+    }
     const status_t wst = write_pending(o);
     if (wst != STATUS_OK) {
         return wst;
@@ -390,6 +398,9 @@ status_t output_save_rows(output_t *o, const char *path, const char *prefix)
 
 status_t output_restore_rows(output_t *o, const char *path, const char *prefix, long rows)
 {
+    if (o->off) {
+        return STATUS_OK;
+    }
     hid_t src = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (src < 0) {
         return log_msg(&o->log, STATUS_ERROR, "output", "%s: cannot open it to read the output rows", path);
@@ -458,10 +469,13 @@ status_t output_restore_rows(output_t *o, const char *path, const char *prefix, 
 
 long output_rows(const output_t *o) { return (long)(o->rows + o->pending); }
 
-status_t output_flush(output_t *o) { return write_pending(o); }
+status_t output_flush(output_t *o) { return o->off ? STATUS_OK : write_pending(o); }
 
 status_t output_row(output_t *o, const output_row_t *r)
 {
+    if (o->off) {
+        return STATUS_OK;
+    }
     series_t *s = o->s;
     series_append(o, &s[S_TIME], &r->time);
     series_append(o, &s[S_MASS], &r->mass);
@@ -494,11 +508,17 @@ status_t output_row(output_t *o, const output_row_t *r)
 
 status_t output_attr(output_t *o, const char *name, double value)
 {
+    if (o->off) {
+        return STATUS_OK;
+    }
     return attr_doubles(o, o->file, name, &value, 1);
 }
 
 status_t output_attr_string(output_t *o, const char *name, const char *value)
 {
+    if (o->off) {
+        return STATUS_OK;
+    }
     return attr_string(o, o->file, name, value);
 }
 
@@ -507,7 +527,7 @@ status_t output_close(output_t *o)
     if (o == NULL) {
         return STATUS_OK;
     }
-    status_t st = o->file >= 0 ? write_pending(o) : STATUS_OK;
+    status_t st = o->file >= 0 && !o->off ? write_pending(o) : STATUS_OK;
     for (int k = 0; k < NSERIES; k++) {
         if (o->s[k].id >= 0 && H5Dclose(o->s[k].id) < 0) {
             st = fail(o, "a dataset (closing)");

@@ -21,6 +21,7 @@
  * error stops the run with the output file holding every row written. */
 #define _XOPEN_SOURCE 700 /* nftw, mkdtemp */
 #include "run.h"
+#include "mpi_env.h"
 
 #include "../common/fmi_adapter.h"
 #include "../fluid/units.h"
@@ -699,6 +700,15 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     if (units_derive(scene, log, &m.un) != STATUS_OK) {
         goto done;
     }
+    /* under mpirun (mpi_env.h) every rank runs this master; rank 0 writes */
+    const int writer = mpi_env_rank() == 0;
+    if (mpi_env_size() > 1 && (opt->checkpoint_every > 0.0 || opt->restart != NULL || opt->checkpoint_t1 > 0.0)) {
+        log_msg(log, STATUS_ERROR, CAT,
+                "%s: checkpoints (--checkpoint-every, --restart, --checkpoint-test) are not written on more than "
+                "one MPI rank yet (issue 13); run on one rank, or without them",
+                scene->path);
+        goto done;
+    }
     m.ns = scene_total_spheres(scene);
     m.nfree_bodies = nfree_bodies(scene);
     m.nc = m.nfree_bodies > 0 ? scene->nconnections : 0;
@@ -741,7 +751,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         goto done;
     }
     if (check_guid(&m, m.fluid) >= STATUS_ERROR || (m.rigid != NULL && check_guid(&m, m.rigid) >= STATUS_ERROR) ||
-        plan_observation(&m) >= STATUS_ERROR || check_writable(opt->output, log) >= STATUS_ERROR) {
+        plan_observation(&m) >= STATUS_ERROR || (writer && check_writable(opt->output, log) >= STATUS_ERROR)) {
         goto done;
     }
     const char *fields_rel = NULL;
@@ -754,7 +764,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         }
         strncat(m.fields, "_fields.h5", sizeof m.fields - strlen(m.fields) - 1);
         fields_rel = strrchr(m.fields, '/') != NULL ? strrchr(m.fields, '/') + 1 : m.fields;
-        if (check_writable(m.fields, log) >= STATUS_ERROR) {
+        if (writer && check_writable(m.fields, log) >= STATUS_ERROR) {
             goto done;
         }
     }
@@ -796,7 +806,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     units_t shown = m.un;
     shown.dt = dt; /* the time base of the run (may differ from units_derive's dt in the last bit) */
     /* a restart writes the output anew: the rows to the checkpoint from its copy */
-    st = output_open(opt->output, scene, &shown, &layout, log, &out);
+    st = output_open(writer ? opt->output : NULL, scene, &shown, &layout, log, &out);
     if (st < STATUS_ERROR && opt->restart != NULL) {
         st = output_restore_rows(out, opt->restart, "/output", restart.rows);
     }
@@ -894,7 +904,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             continue;
         }
         const int cp_due = every > 0.0 && n > n0 && t >= next_cp * every - 1e-9 * dt;
-        if (!last && (cp_due || stop_signal != 0)) {
+        if (!last && (cp_due || stop_signal != 0) && mpi_env_size() == 1) {
             point.n = n;
             point.next_out = next_out;
             if (save_checkpoint(&m, out, &point) != STATUS_OK) {

@@ -15,6 +15,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <string.h>
 
 /* One population array of values of esize bytes, 64-byte aligned; the cells
@@ -86,7 +87,8 @@ static void init_profile(fluid_t *fl, const scene_t *scene)
     for (int z = 0; z < g->s[2]; z++) {
         for (int y = 0; y < g->s[1]; y++) {
             for (int x = 0; x < g->s[0]; x++) {
-                const double pos[3] = {(x - 0.5) * dx, (y - 0.5) * dx, (z - 0.5) * dx};
+                const int *o = fl->d.lo; /* global position of the block's cells */
+                const double pos[3] = {(x + o[0] - 0.5) * dx, (y + o[1] - 0.5) * dx, (z + o[2] - 0.5) * dx};
                 double u[3], grad[3][3];
                 scene_initial_velocity(scene, pos, u);
                 for (int a = 0; a < 3; a++) {
@@ -135,7 +137,20 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
         free(fl);
         return st;
     }
-    grid_init(&fl->g, fl->units.n);
+    st = decomp_init(&fl->d, scene, fl->units.n, log);
+    if (st >= STATUS_ERROR) {
+        free(fl);
+        return st;
+    }
+    if (fl->d.size > 1 && scene_total_spheres(scene) > 0) {
+        decomp_free(&fl->d);
+        free(fl);
+        return log_msg(log, STATUS_ERROR, "fluid",
+                       "%s: spheres on more than one MPI rank are not supported yet (issue 13): run this scene "
+                       "on one rank",
+                       scene->path ? scene->path : "(scene)");
+    }
+    grid_init(&fl->g, fl->d.n);
     fl->kp.omega_plus = fl->units.omega_plus;
     fl->kp.omega_minus = fl->units.omega_minus;
     memcpy(fl->kp.force, fl->units.force_lat, sizeof fl->kp.force);
@@ -153,6 +168,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
                      "another fluid.magic",
                      fl->path ? fl->path : "(scene)", fl->units.omega_minus, scene->fluid.tau, scene->fluid.magic);
         free(fl->path);
+        decomp_free(&fl->d);
         free(fl);
         return st;
     }
@@ -186,7 +202,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     } else {
         init_profile(fl, scene);
     }
-    st = walls_build(&fl->walls, &fl->g, scene, &fl->units, log);
+    st = walls_build(&fl->walls, &fl->g, scene, &fl->units, &fl->d, log);
     if (st == STATUS_OK) {
         st = spheres_init(&fl->spheres, scene, &fl->units, &fl->g, fl->flags, log);
     }
@@ -210,6 +226,7 @@ void fluid_free(fluid_t *fl)
     }
     walls_free(&fl->walls);
     spheres_free(&fl->spheres);
+    decomp_free(&fl->d);
     free(fl->flags);
     free(fl->f[1]);
     free(fl->f[0]);
@@ -348,18 +365,23 @@ status_t fluid_step(fluid_t *fl)
     const int two = fl->streaming == STREAMING_TWO_ARRAY;
     if (fl->spheres.n > 0) {
         spheres_advance_prescribed(&fl->spheres, &fl->g, fl->step);
-        const status_t st = spheres_map(&fl->spheres, &fl->g, fl->flags, &p, &fl->log);
-        if (st != STATUS_OK) {
+        status_t st = spheres_map(&fl->spheres, &fl->g, fl->flags, &p, &fl->log);
+        if (st == STATUS_OK) {
+            st = walls_fill(&fl->walls, &fl->g, &p, &fl->log);
+        }
+        if ((st = decomp_agree(&fl->d, st)) != STATUS_OK) {
             return st;
         }
-        walls_fill(&fl->walls, &fl->g, &p);
         pops_t prev;
         if (two) {
             pops_init(&prev, &fl->g, fl->f[1 - fl->cur], fl->single, LAYOUT_PULL);
         }
         spheres_fill(&fl->spheres, &fl->g, &p, two ? &prev : NULL);
     } else {
-        walls_fill(&fl->walls, &fl->g, &p);
+        const status_t st = decomp_agree(&fl->d, walls_fill(&fl->walls, &fl->g, &p, &fl->log));
+        if (st != STATUS_OK) {
+            return st;
+        }
     }
     if (two) {
         if (fl->single) {
@@ -388,8 +410,29 @@ const units_t *fluid_units(const fluid_t *fl) { return &fl->units; }
 void fluid_cells(const fluid_t *fl, int n[3])
 {
     for (int a = 0; a < 3; a++) {
-        n[a] = fl->g.n[a];
+        n[a] = fl->d.N[a];
     }
+}
+
+void fluid_block(const fluid_t *fl, int lo[3], int n[3], const void **comm)
+{
+    for (int a = 0; a < 3; a++) {
+        lo[a] = fl->d.lo[a];
+        n[a] = fl->d.n[a];
+    }
+    *comm = fl->d.comm;
+}
+
+void fluid_decomposition(const fluid_t *fl, fluid_decomposition_t *out)
+{
+    out->ranks = fl->d.size;
+    out->rank = fl->d.rank;
+    for (int a = 0; a < 3; a++) {
+        out->dims[a] = fl->d.dims[a];
+        out->lo[a] = fl->d.lo[a];
+        out->n[a] = fl->d.n[a];
+    }
+    out->halo_bytes = fl->d.halo_bytes;
 }
 
 size_t fluid_memory_bytes(const fluid_t *fl)
@@ -480,30 +523,47 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
 {
     const grid_t *g = &fl->g;
     const pops_t pf = fluid_pops(fl), *f = &pf;
-    double m = 0.0, jx = 0.0, jy = 0.0, jz = 0.0;
-    const int ny = g->n[1], nz = g->n[2];
-#pragma omp parallel for collapse(2) reduction(+ : m, jx, jy, jz) schedule(static)
-    for (int z = 1; z <= nz; z++) {
-        for (int y = 1; y <= ny; y++) {
-            for (int x = 1; x <= g->n[0]; x++) {
-                const size_t i = grid_index(g, x, y, z);
-                if (fl->flags[i] != CELL_FLUID) {
-                    continue;
-                }
-                for (int q = 0; q < LB_Q; q++) {
-                    const double v = pops_post(f, q, i);
-                    m += v;
-                    jx += lb_c[q][0] * v;
-                    jy += lb_c[q][1] * v;
-                    jz += lb_c[q][2] * v;
+    xsum_t t[4];
+    for (int k = 0; k < 4; k++) {
+        xsum_zero(&t[k]);
+    }
+    /* exact sums (common/exact_sum.h): any order of threads and ranks */
+#pragma omp parallel
+    {
+        xsum_t mine[4];
+        for (int k = 0; k < 4; k++) {
+            xsum_zero(&mine[k]);
+        }
+#pragma omp for collapse(2) schedule(static)
+        for (int z = 1; z <= g->n[2]; z++) {
+            for (int y = 1; y <= g->n[1]; y++) {
+                for (int x = 1; x <= g->n[0]; x++) {
+                    const size_t i = grid_index(g, x, y, z);
+                    if (fl->flags[i] != CELL_FLUID) {
+                        continue;
+                    }
+                    for (int q = 0; q < LB_Q; q++) {
+                        const double v = pops_post(f, q, i);
+                        xsum_add(&mine[0], v);
+                        for (int a = 0; a < 3; a++) {
+                            if (lb_c[q][a] != 0) {
+                                xsum_add(&mine[1 + a], lb_c[q][a] * v);
+                            }
+                        }
+                    }
                 }
             }
         }
+#pragma omp critical(fluid_totals)
+        for (int k = 0; k < 4; k++) {
+            xsum_merge(&t[k], &mine[k]);
+        }
     }
-    *mass = m;
-    momentum[0] = jx;
-    momentum[1] = jy;
-    momentum[2] = jz;
+    decomp_sum(&fl->d, t, 4);
+    *mass = xsum_value(&t[0]);
+    for (int a = 0; a < 3; a++) {
+        momentum[a] = xsum_value(&t[1 + a]);
+    }
 }
 
 /* Numerical trouble in one fluid cell, worst first (the order in which a
@@ -551,48 +611,79 @@ static inline int cell_trouble(double r, const double u[3], double umax2)
     return uu > umax2 ? TROUBLE_MACH : TROUBLE_NONE;
 }
 
-/* One number per cell in trouble that orders cells as a scan reports them:
- * the worse cause first, then the first cell in memory order; 0 for none.
- * Exact in a double (ncells * 5 < 2^53). */
-static inline double trouble_key(const grid_t *g, int cause, size_t i)
+/* One number per cell in trouble that orders cells as a scan of the whole
+ * grid reports them: the worse cause first, then the first cell in global
+ * order (x fastest); 0 for none. The same on any number of ranks; exact in a
+ * double (cells * 5 < 2^53). */
+static inline double trouble_key(const fluid_t *fl, int cause, size_t i)
 {
-    return cause == TROUBLE_NONE ? 0.0 : (double)cause * (double)g->ncells + (double)(g->ncells - 1 - i);
+    if (cause == TROUBLE_NONE) {
+        return 0.0;
+    }
+    const grid_t *g = &fl->g;
+    const decomp_t *d = &fl->d;
+    const double total = (double)d->N[0] * (double)d->N[1] * (double)d->N[2];
+    const double gx = (double)(i % (size_t)g->s[0]) - 1 + d->lo[0];
+    const double gy = (double)(i / (size_t)g->s[0] % (size_t)g->s[1]) - 1 + d->lo[1];
+    const double gz = (double)(i / ((size_t)g->s[0] * (size_t)g->s[1])) - 1 + d->lo[2];
+    return (double)cause * total + (total - 1.0 - (gx + d->N[0] * (gy + d->N[1] * gz)));
 }
 
 /* The error message of the cell a trouble key names: step, time, cell,
- * position in m, cause with the numbers, and what to change. */
+ * position in m, cause with the numbers, and what to change. Written by
+ * the rank that holds the cell and logged by every rank. */
 static status_t trouble_report(const fluid_t *fl, double key, double mach_limit)
 {
     const grid_t *g = &fl->g;
-    const int cause = (int)floor(key / (double)g->ncells);
-    const size_t i = g->ncells - 1 - (size_t)(key - (double)cause * (double)g->ncells);
-    const int x = (int)(i % (size_t)g->s[0]);
-    const int y = (int)(i / (size_t)g->s[0] % (size_t)g->s[1]);
-    const int z = (int)(i / ((size_t)g->s[0] * (size_t)g->s[1]));
-    const pops_t pf = fluid_pops(fl);
-    double r, u[3];
-    local_moments(fl, &pf, i, &r, u);
-    const double umag = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]), dx = fl->units.dx;
-    /* the lattice velocity of a given flow is U dt / dx = U (tau - 1/2) dx / (3 nu): a smaller tau
-     * or a smaller dx lowers it, but near tau = 1/2 a smaller tau makes the lattice less stable */
-    const char *remedy = cause == TROUBLE_MACH
-                             ? (fl->units.tau >= 0.55
-                                    ? "lower the flow speed in lattice units: a smaller time step (fluid.tau closer "
-                                      "to 0.5, or fluid.dt), more cells (fluid.dx), or slower walls, inlets, body "
-                                      "force or bodies; raise fluid.mach_limit (at most 1) only if this speed is "
-                                      "meant"
-                                    : "lower the flow speed in lattice units: more cells (a smaller fluid.dx; "
-                                      "fluid.tau is already close to 0.5, where a smaller tau makes the lattice less "
-                                      "stable), or slower walls, inlets, body force or bodies; raise "
-                                      "fluid.mach_limit (at most 1) only if this speed is meant")
-                             : "the lattice became unstable: raise fluid.tau (or fluid.dt) away from 0.5, use TRT "
-                               "(fluid.collision: trt), more cells (fluid.dx), or lower the flow speed";
-    return log_msg(&fl->log, STATUS_ERROR, "fluid",
-                   "%s: numerical trouble at step %ld (t = %.6g s), cell (%d, %d, %d) at (%.4g, %.4g, %.4g) m: "
-                   "%s (density %.6g, |u| = %.4g lattice = Mach %.4g, fluid.mach_limit %.4g); %s%s",
-                   fl->path, fl->step, fluid_time(fl), x - 1, y - 1, z - 1, (x - 0.5) * dx, (y - 0.5) * dx,
-                   (z - 0.5) * dx, TROUBLE_CAUSES[cause], r, umag, umag / sqrt(LB_CS2), mach_limit,
-                   any_risky_coupling(fl) ? RISKY_COUPLING_REMEDY "; otherwise " : "", remedy);
+    const decomp_t *d = &fl->d;
+    const double total = (double)d->N[0] * (double)d->N[1] * (double)d->N[2];
+    const int cause = (int)floor(key / total);
+    const double gi = total - 1.0 - (key - (double)cause * total);
+    const int G[3] = {(int)fmod(gi, d->N[0]), (int)fmod(floor(gi / d->N[0]), d->N[1]),
+                      (int)floor(gi / ((double)d->N[0] * d->N[1]))};
+    int mine = 1;
+    for (int a = 0; a < 3; a++) {
+        mine = mine && G[a] >= d->lo[a] && G[a] < d->lo[a] + d->n[a];
+    }
+    double owner = mine ? (double)d->rank : -1.0;
+    decomp_max(d, &owner, 1);
+    char text[2048] = "";
+    if (mine) {
+        const size_t i = grid_index(g, G[0] - d->lo[0] + 1, G[1] - d->lo[1] + 1, G[2] - d->lo[2] + 1);
+        const pops_t pf = fluid_pops(fl);
+        double r, u[3];
+        local_moments(fl, &pf, i, &r, u);
+        const double umag = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]), dx = fl->units.dx;
+        /* the lattice velocity of a given flow is U dt / dx = U (tau - 1/2) dx / (3 nu): a smaller tau
+         * or a smaller dx lowers it, but near tau = 1/2 a smaller tau makes the lattice less stable */
+        const char *remedy = cause == TROUBLE_MACH
+                                 ? (fl->units.tau >= 0.55
+                                        ? "lower the flow speed in lattice units: a smaller time step (fluid.tau "
+                                          "closer to 0.5, or fluid.dt), more cells (fluid.dx), or slower walls, "
+                                          "inlets, body force or bodies; raise fluid.mach_limit (at most 1) only if "
+                                          "this speed is meant"
+                                        : "lower the flow speed in lattice units: more cells (a smaller fluid.dx; "
+                                          "fluid.tau is already close to 0.5, where a smaller tau makes the lattice "
+                                          "less stable), or slower walls, inlets, body force or bodies; raise "
+                                          "fluid.mach_limit (at most 1) only if this speed is meant")
+                                 : "the lattice became unstable: raise fluid.tau (or fluid.dt) away from 0.5, use TRT "
+                                   "(fluid.collision: trt), more cells (fluid.dx), or lower the flow speed";
+        snprintf(text, sizeof text,
+                 "%s: numerical trouble at step %ld (t = %.6g s), cell (%d, %d, %d) at (%.4g, %.4g, %.4g) m: "
+                 "%s (density %.6g, |u| = %.4g lattice = Mach %.4g, fluid.mach_limit %.4g); %s%s",
+                 fl->path, fl->step, fluid_time(fl), G[0], G[1], G[2], (G[0] + 0.5) * dx, (G[1] + 0.5) * dx,
+                 (G[2] + 0.5) * dx, TROUBLE_CAUSES[cause], r, umag, umag / sqrt(LB_CS2), mach_limit,
+                 any_risky_coupling(fl) ? RISKY_COUPLING_REMEDY "; otherwise " : "", remedy);
+    }
+    decomp_bcast_text(d, text, sizeof text, (int)owner);
+    return log_msg(&fl->log, STATUS_ERROR, "fluid", "%s", text);
+}
+
+/* The worst trouble key of all ranks, and its report. */
+static status_t trouble_finish(const fluid_t *fl, double key, double mach_limit)
+{
+    decomp_max(&fl->d, &key, 1);
+    return key > 0.0 ? trouble_report(fl, key, mach_limit) : STATUS_OK;
 }
 
 enum { DIAG_NV = 10 }; /* mass, momentum 3, kinetic, umax, peak 3, trouble key */
@@ -600,8 +691,8 @@ enum { DIAG_NV = 10 }; /* mass, momentum 3, kinetic, umax, peak 3, trouble key *
 /* The sums of one z plane, with the layout state and precision known at
  * compile time (one copy per combination below). */
 static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_t *fl, const pops_t *p0, int z,
-                                                                    double *v, double umax2, layout_state_t state,
-                                                                    int single)
+                                                                    xsum_t *xs, double *v, double umax2,
+                                                                    layout_state_t state, int single)
 {
     const grid_t *g = &fl->g;
     const pops_t pl = pops_fixed(p0, state, single);
@@ -614,16 +705,16 @@ static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_
             double r, u[3];
             local_moments(fl, &pl, i, &r, u);
             const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-            v[0] += r;
+            xsum_add(&xs[0], r);
             for (int a = 0; a < 3; a++) {
-                v[1 + a] += r * u[a];
+                xsum_add(&xs[1 + a], r * u[a]);
                 if (fabs(u[a]) > fabs(v[6 + a])) {
                     v[6 + a] = u[a];
                 }
             }
-            v[4] += 0.5 * r * uu;
+            xsum_add(&xs[4], 0.5 * r * uu);
             v[5] = fmax(v[5], sqrt(uu));
-            v[9] = fmax(v[9], trouble_key(g, cell_trouble(r, u, umax2), i));
+            v[9] = fmax(v[9], trouble_key(fl, cell_trouble(r, u, umax2), i));
         }
     }
 }
@@ -635,44 +726,66 @@ status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass,
     const pops_t pf = fluid_pops(fl);
     const int nz = g->n[2];
     const double umax2 = mach_limit * mach_limit * LB_CS2;
-    enum { NV = DIAG_NV };
+    enum { NV = DIAG_NV, NS = 5 };
     double *plane = calloc((size_t)nz * NV, sizeof(double));
-    if (plane == NULL) {
+    xsum_t *sums = calloc((size_t)nz * NS, sizeof(xsum_t));
+    if (plane == NULL || sums == NULL) {
+        free(plane);
+        free(sums);
         *mass = *kinetic = *umax = NAN;
         momentum[0] = momentum[1] = momentum[2] = peak[0] = peak[1] = peak[2] = NAN;
-        return log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory for the plane sums of the totals (%zu bytes)",
-                       (size_t)nz * NV * sizeof(double));
+        return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
+                                            "out of memory for the plane sums of the totals (%zu bytes)",
+                                            (size_t)nz * (NV * sizeof(double) + NS * sizeof(xsum_t))));
     }
 #pragma omp parallel for schedule(static)
     for (int z = 1; z <= nz; z++) {
         double *v = plane + (size_t)(z - 1) * NV;
-#define PLANE(state, single) diagnostics_plane(fl, &pf, z, v, umax2, state, single)
+        xsum_t *xs = sums + (size_t)(z - 1) * NS;
+#define PLANE(state, single) diagnostics_plane(fl, &pf, z, xs, v, umax2, state, single)
         POPS_SPECIALISE(&pf, PLANE);
 #undef PLANE
     }
-    double t[NV] = {0.0};
+    /* exact sums (common/exact_sum.h): the same bits for any number of
+     * threads and ranks; maxima are exact anyway */
+    xsum_t t[NS];
+    double m[1 + 3 + 3 + 1] = {0.0}; /* umax, |peak|, peak (where |peak| is largest), trouble key */
+    for (int k = 0; k < NS; k++) {
+        xsum_zero(&t[k]);
+    }
     for (int z = 0; z < nz; z++) {
         const double *v = plane + (size_t)z * NV;
-        for (int k = 0; k < 5; k++) {
-            t[k] += v[k];
+        for (int k = 0; k < NS; k++) {
+            xsum_merge(&t[k], &sums[(size_t)z * NS + k]);
         }
-        t[5] = fmax(t[5], v[5]);
+        m[0] = fmax(m[0], v[5]);
         for (int a = 0; a < 3; a++) {
-            if (fabs(v[6 + a]) > fabs(t[6 + a])) {
-                t[6 + a] = v[6 + a];
+            if (fabs(v[6 + a]) > m[1 + a]) {
+                m[1 + a] = fabs(v[6 + a]);
+                m[4 + a] = v[6 + a];
             }
         }
-        t[9] = fmax(t[9], v[9]);
+        m[7] = fmax(m[7], v[9]);
     }
     free(plane);
-    *mass = t[0];
+    free(sums);
+    decomp_sum(&fl->d, t, NS);
+    double largest[3] = {m[1], m[2], m[3]};
+    decomp_max(&fl->d, m, 4);
     for (int a = 0; a < 3; a++) {
-        momentum[a] = t[1 + a];
-        peak[a] = t[6 + a];
+        /* the signed peak of a rank that holds the largest magnitude (of
+         * two such ranks, the positive one) */
+        m[4 + a] = largest[a] == m[1 + a] && m[1 + a] > 0.0 ? m[4 + a] : -INFINITY;
     }
-    *kinetic = t[4];
-    *umax = t[5];
-    return t[9] > 0.0 ? trouble_report(fl, t[9], mach_limit) : STATUS_OK;
+    decomp_max(&fl->d, m + 4, 3);
+    *mass = xsum_value(&t[0]);
+    for (int a = 0; a < 3; a++) {
+        momentum[a] = xsum_value(&t[1 + a]);
+        peak[a] = m[1 + a] > 0.0 ? m[4 + a] : 0.0;
+    }
+    *kinetic = xsum_value(&t[4]);
+    *umax = m[0];
+    return trouble_finish(fl, m[7], mach_limit);
 }
 
 status_t fluid_check(fluid_t *fl, double mach_limit)
@@ -692,11 +805,11 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
                 }
                 double r, u[3];
                 local_moments(fl, f, i, &r, u);
-                worst = fmax(worst, trouble_key(g, cell_trouble(r, u, umax2), i));
+                worst = fmax(worst, trouble_key(fl, cell_trouble(r, u, umax2), i));
             }
         }
     }
-    return worst > 0.0 ? trouble_report(fl, worst, mach_limit) : STATUS_OK;
+    return trouble_finish(fl, worst, mach_limit);
 }
 
 status_t fluid_check_loads(fluid_t *fl, double mach_limit)

@@ -25,10 +25,21 @@ status_t fluid_step(fluid_t *fl);
 long fluid_step_count(const fluid_t *fl);
 double fluid_time(const fluid_t *fl); /* s */
 const units_t *fluid_units(const fluid_t *fl);
-void fluid_cells(const fluid_t *fl, int n[3]);
+void fluid_cells(const fluid_t *fl, int n[3]); /* the whole grid */
+/* This rank's block of the grid (fluid/decomp.h): global cells lo .. lo + n
+ * - 1, and the communicator of the ranks (const MPI_Comm *, NULL on one
+ * rank). The field functions below read and write the block's cells; on
+ * one rank it is the whole grid. */
+void fluid_block(const fluid_t *fl, int lo[3], int n[3], const void **comm);
+typedef struct {
+    int ranks, rank, dims[3]; /* ranks along x, y, z */
+    int lo[3], n[3];          /* this rank's block */
+    double halo_bytes;        /* sent by this rank per step */
+} fluid_decomposition_t;
+void fluid_decomposition(const fluid_t *fl, fluid_decomposition_t *out);
 size_t fluid_memory_bytes(const fluid_t *fl);
 
-/* Density and velocity of every interior cell, lattice units, x fastest:
+/* Density and velocity of every interior cell of the block, lattice units, x fastest:
  * rho[i], u[3*i+a] with i = x + nx*(y + ny*z) (0-based interior coordinates):
  * the values the last collision used (with Guo's half-force shift). Solid
  * cells read 0. */

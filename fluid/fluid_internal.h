@@ -10,6 +10,7 @@
 
 #include "fluid.h"
 #include "grid.h"
+#include "decomp.h"
 #include "kernel.h"
 #include "layout.h"
 #include "spheres.h"
@@ -20,7 +21,8 @@
 enum { CELL_FLUID = 0, CELL_SOLID = 1, CELL_GHOST = 2 };
 
 struct fluid {
-    grid_t g;
+    grid_t g;             /* this rank's block (the whole grid on one rank) */
+    decomp_t d;
     units_t units;
     kernel_params_t kp;
     void *f[2];           /* two_array: both; in_place: f[0] only (f[1] NULL); double or float */

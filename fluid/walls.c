@@ -35,7 +35,7 @@ static int face_rank(face_type_t t)
 /* Inlet velocity (lattice units) where link (cell xf, direction q) crosses
  * face f: uniform, or a parabola across every non-periodic tangential axis
  * with the given peak, evaluated at the crossing point x_f - c_q/2. */
-static void inlet_velocity(const scene_t *s, const grid_t *g, const units_t *u, int f, const int xf[3], int q,
+static void inlet_velocity(const scene_t *s, const decomp_t *d, const units_t *u, int f, const int xf[3], int q,
                            double uw[3])
 {
     const face_t *face = &s->domain.faces[f];
@@ -45,7 +45,7 @@ static void inlet_velocity(const scene_t *s, const grid_t *g, const units_t *u, 
             if (a == f / 2 || s->domain.faces[2 * a].type == FACE_PERIODIC) {
                 continue;
             }
-            const double xi = ((double)xf[a] - 0.5 - 0.5 * lb_c[q][a]) / g->n[a];
+            const double xi = ((double)(xf[a] + d->lo[a]) - 0.5 - 0.5 * lb_c[q][a]) / d->N[a];
             shape *= 4.0 * xi * (1.0 - xi);
         }
     }
@@ -85,14 +85,15 @@ static status_t push_copy(walls_t *w, size_t *cap, size_t cell, int q, size_t sr
     return STATUS_OK;
 }
 
-status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_t *u, const log_t *log)
+status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_t *u, decomp_t *d, const log_t *log)
 {
     w->links = NULL;
     w->nlinks = 0;
     w->copies = NULL;
     w->ncopies = 0;
+    w->d = d;
     for (int a = 0; a < 3; a++) {
-        w->periodic[a] = s->domain.faces[2 * a].type == FACE_PERIODIC;
+        w->periodic[a] = s->domain.faces[2 * a].type == FACE_PERIODIC && d->dims[a] == 1;
     }
     size_t cap = 0, capc = 0;
     if (g->ncells > UINT32_MAX) {
@@ -119,6 +120,9 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                         any = 1;
                         const int side = sp[a] < 1 ? 0 : 1;
                         const int f = 2 * a + side;
+                        if (decomp_exchanged(d, a, side)) {
+                            continue; /* another rank's cell: its value comes by the exchange */
+                        }
                         if (s->domain.faces[f].type == FACE_PERIODIC) {
                             sp[a] += side == 0 ? g->n[a] : -g->n[a];
                         } else {
@@ -130,7 +134,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                         }
                     }
                     if (!any || best < 0) {
-                        continue; /* interior, or only periodic faces crossed: periodic_fill */
+                        continue; /* interior, or only periodic and exchange faces crossed: periodic_fill */
                     }
                     ghost_link_t l = {0};
                     l.q = q;
@@ -164,7 +168,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                                 uw[a] = face->velocity[a] / units_velocity(u);
                             }
                         } else if (face->type == FACE_VELOCITY_INLET) {
-                            inlet_velocity(s, g, u, best, xf, q, uw);
+                            inlet_velocity(s, d, u, best, xf, q, uw);
                         }
                         l.kind = LINK_BOUNCE;
                         l.coef = 6.0 * lb_w[q] * (lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2]);
@@ -271,12 +275,13 @@ static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[
     }
 }
 
-static void periodic_fill(const walls_t *w, const grid_t *g, const pops_t *p)
+static status_t periodic_fill(const walls_t *w, const grid_t *g, const pops_t *p, const log_t *log)
 {
     const int push = p->state == LAYOUT_PUSHED;
+    status_t st = STATUS_OK;
     for (int k = 0; k < 3; k++) {
         const int a = push ? 2 - k : k;
-        if (!w->periodic[a]) {
+        if (!w->periodic[a] && !decomp_exchanged(w->d, a, 0) && !decomp_exchanged(w->d, a, 1)) {
             continue;
         }
         int lo[3], hi[3];
@@ -287,13 +292,29 @@ static void periodic_fill(const walls_t *w, const grid_t *g, const pops_t *p)
             lo[b] = with_ghosts ? 0 : 1;
             hi[b] = with_ghosts ? g->n[b] + 1 : g->n[b];
         }
-        periodic_axis(g, p, a, lo, hi);
+        if (w->periodic[a]) {
+            periodic_axis(g, p, a, lo, hi);
+        } else {
+            /* the same copy with the other side on another rank, and the
+             * ghost rows of the domain walls along the face too: after the
+             * push kernel, a free-slip link beside the cut reads what the
+             * neighbour's cell pushed into its wall ghost (on one rank the
+             * same slot is in this grid) */
+            for (int b = 0; b < 3; b++) {
+                if (b != a && !w->periodic[b]) {
+                    lo[b] = decomp_exchanged(w->d, b, 0) ? lo[b] : 0;
+                    hi[b] = decomp_exchanged(w->d, b, 1) ? hi[b] : g->n[b] + 1;
+                }
+            }
+            st = status_worst(st, decomp_exchange_axis(w->d, g, p, a, lo, hi, log));
+        }
     }
+    return st;
 }
 
-void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
+status_t walls_fill(const walls_t *w, const grid_t *g, const pops_t *p, const log_t *log)
 {
-    periodic_fill(w, g, p);
+    const status_t st = periodic_fill(w, g, p, log);
     const ptrdiff_t nc = (ptrdiff_t)w->ncopies, n = (ptrdiff_t)w->nlinks;
     const copy_link_t *restrict cp = w->copies;
 #pragma omp parallel
@@ -341,4 +362,5 @@ void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
         }
     }
     }
+    return st;
 }

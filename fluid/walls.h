@@ -20,6 +20,7 @@
 #define FLUID_WALLS_H
 
 #include "../common/scene.h"
+#include "decomp.h"
 #include "grid.h"
 #include "layout.h"
 #include "units.h"
@@ -51,12 +52,16 @@ typedef struct {
     size_t nlinks;
     copy_link_t *copies; /* free-slip copy links in cell order: a tight, cache-friendly loop */
     size_t ncopies;
-    int periodic[3];     /* periodic axes: filled by a copy of the ghost layers, no list (walls.c) */
+    int periodic[3];     /* periodic axes with one rank: filled by a copy of the ghost layers, no list (walls.c) */
+    decomp_t *d;         /* the block (not owned): faces to other ranks are filled by its exchange */
 } walls_t;
 
-status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_t *u, const log_t *log);
+/* The links of the block's faces that are faces of the domain (d: the
+ * block; global coordinates for inlet profiles). */
+status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_t *u, decomp_t *d, const log_t *log);
 void walls_free(walls_t *w);
-/* Writes the populations that interior cells receive from ghost cells. */
-void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p);
+/* Writes the populations that interior cells receive from ghost cells: the
+ * periodic copy and the exchange with other ranks first, then the links. */
+status_t walls_fill(const walls_t *w, const grid_t *g, const pops_t *p, const log_t *log);
 
 #endif

@@ -287,7 +287,7 @@ static const bad_scene_t CASES[] = {
      "field_interval"},
     {26, "run: 0.1", NULL, {NULL}, 1,
      "scene.yaml:26: run: wrong type or value (libcyaml: Expecting MAPPING, got event: SCALAR); allowed: "
-     "a mapping with the keys end_time (required), output_interval, fields, field_interval"},
+     "a mapping with the keys end_time (required), output_interval, fields, field_interval, ranks"},
 
     /* --- --set paths --- */
     {0, NULL, NULL, {"run.end_time.0=1"}, 1,

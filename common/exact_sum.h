@@ -1,0 +1,91 @@
+/* exact_sum.h — sums of doubles whose result does not depend on the order of
+ * the terms: the same bits for any number of threads or MPI ranks.
+ *
+ * Each term is rounded once to a multiple of 2^-88 (an absolute error below
+ * 1.7e-27, far below the rounding of a double sum of terms of 1e-10 or
+ * more) and added exactly as a 128-bit fixed-point number held in four
+ * signed 32-bit limbs, each accumulated in an int64_t: integer addition is
+ * associative, so the order of the terms, the threads and the ranks (an
+ * MPI_SUM over the limbs as MPI_INT64_T) cannot change the result. A limb
+ * takes 2^31 terms before it could overflow; xsum_normalise carries the
+ * limbs back into 32 bits. Terms of magnitude 2^40 or more, NaN and Inf go
+ * to a plain double beside the exact part: a lattice quantity that large is
+ * numerical trouble that the fluid's checks report, and the total then is
+ * that trouble (Inf, NaN), not a number to trust. The idea of exact
+ * fixed-point accumulation: Demmel & Nguyen, ARITH 21 (2013), "Fast
+ * reproducible floating-point summation"; this is the plain version of it. */
+#ifndef COMMON_EXACT_SUM_H
+#define COMMON_EXACT_SUM_H
+
+#include <math.h>
+#include <stdint.h>
+
+enum { XSUM_LIMBS = 4 };
+
+typedef struct {
+    int64_t l[XSUM_LIMBS]; /* value = sum_k l[k] 2^(32 k - 88) */
+    double big;            /* terms beyond the fixed-point range */
+} xsum_t;
+
+static inline void xsum_zero(xsum_t *s)
+{
+    for (int k = 0; k < XSUM_LIMBS; k++) {
+        s->l[k] = 0;
+    }
+    s->big = 0.0;
+}
+
+static inline void xsum_add(xsum_t *s, double v)
+{
+    if (!(fabs(v) < 0x1p40)) {
+        s->big += v;
+        return;
+    }
+    /* v 2^88 split from the top: each step removes whole multiples of the
+     * limb's weight, which is exact (the difference keeps v's lower bits) */
+    double u = v * 0x1p88;
+    const double t3 = trunc(u * 0x1p-96);
+    u -= t3 * 0x1p96;
+    const double t2 = trunc(u * 0x1p-64);
+    u -= t2 * 0x1p64;
+    const double t1 = trunc(u * 0x1p-32);
+    u -= t1 * 0x1p32;
+    s->l[3] += (int64_t)t3;
+    s->l[2] += (int64_t)t2;
+    s->l[1] += (int64_t)t1;
+    s->l[0] += (int64_t)nearbyint(u); /* the one rounding */
+}
+
+static inline void xsum_merge(xsum_t *s, const xsum_t *o)
+{
+    for (int k = 0; k < XSUM_LIMBS; k++) {
+        s->l[k] += o->l[k];
+    }
+    s->big += o->big;
+}
+
+/* Limbs 0..2 into [0, 2^32), the carry in the top limb: the same value. */
+static inline void xsum_normalise(xsum_t *s)
+{
+    for (int k = 0; k < XSUM_LIMBS - 1; k++) {
+        const int64_t carry = s->l[k] >> 32; /* floor division (arithmetic shift) */
+        s->l[k] -= carry * ((int64_t)1 << 32);
+        s->l[k + 1] += carry;
+    }
+}
+
+/* The sum rounded to a double (correctly, by the conversion of one 128-bit
+ * integer): a function of the limbs only. */
+__extension__ typedef __int128 xsum_i128_t;
+static inline double xsum_value(const xsum_t *s0)
+{
+    xsum_t s = *s0;
+    xsum_normalise(&s);
+    xsum_i128_t t = (xsum_i128_t)s.l[3];
+    for (int k = XSUM_LIMBS - 2; k >= 0; k--) {
+        t = t * ((xsum_i128_t)1 << 32) + s.l[k];
+    }
+    return (double)t * 0x1p-88 + s.big;
+}
+
+#endif

@@ -1,0 +1,47 @@
+/* mpi_env.c — MPI start and end for the coupler CLI (mpi_env.h). */
+#include "mpi_env.h"
+
+#include <mpi.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+static int started, rank, size = 1;
+
+static int launched_by_mpirun(void)
+{
+    return getenv("OMPI_COMM_WORLD_SIZE") != NULL || getenv("PMIX_RANK") != NULL || getenv("PMI_RANK") != NULL;
+}
+
+int mpi_env_init(int *argc, char ***argv)
+{
+    if (!launched_by_mpirun()) {
+        return 0;
+    }
+    int provided = 0;
+    /* OpenMP threads inside a rank; only the main thread calls MPI */
+    if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
+        fprintf(stderr, "error: [mpi] MPI_Init_thread failed: this process cannot join the other ranks\n");
+        return 1;
+    }
+    started = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    return 0;
+}
+
+int mpi_env_rank(void) { return rank; }
+int mpi_env_size(void) { return size; }
+
+int mpi_env_finish(int rc)
+{
+    if (!started) {
+        return rc;
+    }
+    if (rc != 0 && size > 1) {
+        fflush(stdout);
+        fflush(stderr);
+        MPI_Abort(MPI_COMM_WORLD, rc);
+    }
+    MPI_Finalize();
+    return rc;
+}

@@ -1,0 +1,308 @@
+/* decomp.c — the block decomposition and the halo exchange (decomp.h). */
+#include "decomp.h"
+
+#include "lattice.h"
+
+#include <mpi.h>
+#include <stdlib.h>
+#include <string.h>
+
+static MPI_Comm comm_of(const decomp_t *d) { return *(const MPI_Comm *)d->comm; }
+
+/* Cells of block c of p along an axis of n cells, and its first cell. */
+static void split(int n, int p, int c, int *lo, int *len)
+{
+    const int base = n / p, extra = n % p;
+    *len = base + (c < extra ? 1 : 0);
+    *lo = c * base + (c < extra ? c : extra);
+}
+
+status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t *log)
+{
+    memset(d, 0, sizeof *d);
+    d->size = 1;
+    for (int a = 0; a < 3; a++) {
+        d->N[a] = N[a];
+        d->n[a] = N[a];
+        d->dims[a] = 1;
+        d->nbr[a][0] = d->nbr[a][1] = -1;
+    }
+    int inited = 0, world = 1;
+    MPI_Initialized(&inited);
+    if (inited) {
+        int fin = 0;
+        MPI_Finalized(&fin);
+        if (!fin) {
+            MPI_Comm_size(MPI_COMM_WORLD, &world);
+        }
+    }
+    const char *path = s->path ? s->path : "(scene)";
+    const int set = s->run.ranks[0] > 0;
+    if (world == 1) {
+        if (set && s->run.ranks[0] * s->run.ranks[1] * s->run.ranks[2] != 1) {
+            log_msg(log, STATUS_WARNING, "fluid",
+                    "%s: run.ranks [%d, %d, %d] asks for %d MPI ranks but this process runs alone (start it with "
+                    "mpirun -np %d); the whole grid runs here",
+                    path, s->run.ranks[0], s->run.ranks[1], s->run.ranks[2],
+                    s->run.ranks[0] * s->run.ranks[1] * s->run.ranks[2],
+                    s->run.ranks[0] * s->run.ranks[1] * s->run.ranks[2]);
+        }
+        return STATUS_OK;
+    }
+    int dims[3] = {0, 0, 0}, periods[3];
+    if (set) {
+        memcpy(dims, s->run.ranks, sizeof dims);
+        if (dims[0] * dims[1] * dims[2] != world) {
+            return log_msg(log, STATUS_ERROR, "fluid",
+                           "%s: run.ranks [%d, %d, %d] makes %d blocks, but mpirun started %d ranks: the product "
+                           "must equal the number of ranks (or leave run.ranks out to let MPI_Dims_create choose)",
+                           path, dims[0], dims[1], dims[2], dims[0] * dims[1] * dims[2], world);
+        }
+    } else {
+        /* axes too short to cut stay whole (MPI_Dims_create keeps the
+         * entries that are set); the others as balanced as it finds */
+        for (int a = 0; a < 3; a++) {
+            dims[a] = N[a] < 2 * DECOMP_MIN_CELLS ? 1 : 0;
+        }
+        if (dims[0] * dims[1] * dims[2] == 1 && world > 1) {
+            return log_msg(log, STATUS_ERROR, "fluid",
+                           "%s: the grid of %d x %d x %d cells has no axis of %d cells or more to cut over %d "
+                           "ranks: use one rank, or more cells (fluid.dx)",
+                           path, N[0], N[1], N[2], 2 * DECOMP_MIN_CELLS, world);
+        }
+        if (MPI_Dims_create(world, 3, dims) != MPI_SUCCESS) {
+            return log_msg(log, STATUS_ERROR, "fluid", "%s: MPI_Dims_create cannot split %d ranks", path, world);
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        periods[a] = s->domain.faces[2 * a].type == FACE_PERIODIC;
+        if (dims[a] > 1 && N[a] / dims[a] < DECOMP_MIN_CELLS) {
+            return log_msg(log, STATUS_ERROR, "fluid",
+                           "%s: %d cells along %c over %d ranks leaves blocks of fewer than %d cells; use fewer "
+                           "ranks along %c (run.ranks) or more cells (fluid.dx)",
+                           path, N[a], "xyz"[a], dims[a], DECOMP_MIN_CELLS, "xyz"[a]);
+        }
+    }
+    MPI_Comm *cart = malloc(sizeof *cart);
+    if (cart == NULL) {
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the communicator");
+    }
+    /* no reordering: world rank 0 (which writes the outputs) keeps block 0 */
+    MPI_Cart_create(MPI_COMM_WORLD, 3, dims, periods, 0, cart);
+    d->comm = cart;
+    MPI_Comm_size(*cart, &d->size);
+    MPI_Comm_rank(*cart, &d->rank);
+    MPI_Cart_coords(*cart, d->rank, 3, d->coords);
+    for (int a = 0; a < 3; a++) {
+        d->dims[a] = dims[a];
+        split(N[a], dims[a], d->coords[a], &d->lo[a], &d->n[a]);
+        int lo_rank, hi_rank;
+        MPI_Cart_shift(*cart, a, 1, &lo_rank, &hi_rank);
+        /* a periodic axis with one rank is the local copy (walls.c) */
+        const int local = dims[a] == 1;
+        d->nbr[a][0] = local || lo_rank == MPI_PROC_NULL ? -1 : lo_rank;
+        d->nbr[a][1] = local || hi_rank == MPI_PROC_NULL ? -1 : hi_rank;
+    }
+    /* bytes sent per step: 5 populations per face cell, over the ranges of
+     * walls.c periodic_fill: the ghost rows of the axes before a, and of
+     * the domain's wall faces */
+    for (int a = 0; a < 3; a++) {
+        double cells = 1.0;
+        for (int b = 0; b < 3; b++) {
+            if (b == a) {
+                continue;
+            }
+            int len = d->n[b];
+            for (int side = 0; side < 2; side++) {
+                const int wall = d->nbr[b][side] < 0 && !(periods[b] && dims[b] == 1);
+                len += b < a || wall ? 1 : 0;
+            }
+            cells *= len;
+        }
+        for (int side = 0; side < 2; side++) {
+            if (d->nbr[a][side] >= 0) {
+                d->halo_bytes += 5.0 * cells * (s->fluid.precision == PRECISION_SINGLE ? 4.0 : 8.0);
+            }
+        }
+    }
+    return STATUS_OK;
+}
+
+void decomp_free(decomp_t *d)
+{
+    if (d->comm != NULL) {
+        int fin = 0;
+        MPI_Finalized(&fin);
+        if (!fin) {
+            MPI_Comm_free((MPI_Comm *)d->comm);
+        }
+        free(d->comm);
+    }
+    free(d->buf);
+    d->comm = NULL;
+    d->buf = NULL;
+}
+
+/* The directions of axis a with component dir, in q order. */
+static int directions(int a, int dir, int qs[5])
+{
+    int nq = 0;
+    for (int q = 1; q < LB_Q; q++) {
+        if (lb_c[q][a] == dir) {
+            qs[nq++] = q;
+        }
+    }
+    return nq;
+}
+
+/* Copies layer `layer` of axis a (cells lo..hi on the other axes), the
+ * directions qs, between the populations and buf (out: to buf). */
+static void layer_copy(const grid_t *g, const pops_t *p, int a, int layer, const int lo[3], const int hi[3],
+                       const int *qs, int nq, unsigned char *buf, int out)
+{
+    const int b = (a + 1) % 3, c = (a + 2) % 3, nb = hi[b] - lo[b] + 1;
+    const size_t es = p->h != NULL ? sizeof(float) : sizeof(double);
+#pragma omp parallel for schedule(static)
+    for (int j = lo[c]; j <= hi[c]; j++) {
+        int X[3];
+        X[a] = layer;
+        X[c] = j;
+        size_t k = (size_t)(j - lo[c]) * (size_t)nb * (size_t)nq * es;
+        for (int i = lo[b]; i <= hi[b]; i++) {
+            X[b] = i;
+            const size_t cell = grid_index(g, X[0], X[1], X[2]);
+            for (int m = 0; m < nq; m++, k += es) {
+                const size_t slot = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(qs[m]) : qs[m]) * p->n + cell;
+                void *v = p->h != NULL ? (void *)(p->h + slot) : (void *)(p->f + slot);
+                if (out) {
+                    memcpy(buf + k, v, es);
+                } else {
+                    memcpy(v, buf + k, es);
+                }
+            }
+        }
+    }
+}
+
+/* PULL, SWAPPED: the post-collision values of my outer interior layers go to
+ * the neighbours' ghost layers. PUSHED: the push kernel left the values
+ * leaving my block in my ghost layers; they go to the neighbours' outer
+ * interior layers. The message to the upper neighbour carries the 5
+ * directions with c_a = +1, to the lower one those with c_a = -1. */
+status_t decomp_exchange_axis(decomp_t *d, const grid_t *g, const pops_t *p, int a, const int lo[3], const int hi[3],
+                              const log_t *log)
+{
+    if (d->nbr[a][0] < 0 && d->nbr[a][1] < 0) {
+        return STATUS_OK;
+    }
+    const int push = p->state == LAYOUT_PUSHED, n = g->n[a];
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    const size_t es = p->h != NULL ? sizeof(float) : sizeof(double);
+    const size_t bytes = (size_t)(hi[b] - lo[b] + 1) * (size_t)(hi[c] - lo[c] + 1) * 5 * es;
+    if (d->cap < 4 * bytes) {
+        unsigned char *nbuf = realloc(d->buf, 4 * bytes);
+        if (nbuf == NULL) {
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the halo buffers (%zu bytes)", 4 * bytes);
+        }
+        d->buf = nbuf;
+        d->cap = 4 * bytes;
+    }
+    MPI_Request req[4];
+    int nreq = 0;
+    for (int side = 0; side < 2; side++) { /* receive from the neighbour on `side` */
+        if (d->nbr[a][side] >= 0) {
+            MPI_Irecv(d->buf + (size_t)(2 + side) * bytes, (int)bytes, MPI_BYTE, d->nbr[a][side], 1 - side,
+                      comm_of(d), &req[nreq++]);
+        }
+    }
+    for (int side = 0; side < 2; side++) { /* send to the neighbour on `side` */
+        if (d->nbr[a][side] < 0) {
+            continue;
+        }
+        int qs[5];
+        const int nq = directions(a, side == 0 ? -1 : 1, qs);
+        const int layer = push ? (side == 0 ? 0 : n + 1) : (side == 0 ? 1 : n);
+        layer_copy(g, p, a, layer, lo, hi, qs, nq, d->buf + (size_t)side * bytes, 1);
+        MPI_Isend(d->buf + (size_t)side * bytes, (int)bytes, MPI_BYTE, d->nbr[a][side], side, comm_of(d),
+                  &req[nreq++]);
+    }
+    MPI_Waitall(nreq, req, MPI_STATUSES_IGNORE);
+    for (int side = 0; side < 2; side++) {
+        if (d->nbr[a][side] < 0) {
+            continue;
+        }
+        /* from the lower neighbour: directions c_a = +1, into ghost 0
+         * (pull) or layer 1 (push); from the upper one c_a = -1 */
+        int qs[5];
+        const int nq = directions(a, side == 0 ? 1 : -1, qs);
+        const int layer = push ? (side == 0 ? 1 : n) : (side == 0 ? 0 : n + 1);
+        layer_copy(g, p, a, layer, lo, hi, qs, nq, d->buf + (size_t)(2 + side) * bytes, 0);
+    }
+    return STATUS_OK;
+}
+
+status_t decomp_agree(const decomp_t *d, status_t st)
+{
+    if (d->comm == NULL) {
+        return st;
+    }
+    int v = (int)st, w = 0;
+    MPI_Allreduce(&v, &w, 1, MPI_INT, MPI_MAX, comm_of(d));
+    return (status_t)w;
+}
+
+void decomp_sum(const decomp_t *d, xsum_t *s, int count)
+{
+    if (d->comm == NULL || count == 0) {
+        return;
+    }
+    int64_t *l = malloc((size_t)count * XSUM_LIMBS * sizeof *l);
+    double *big = malloc((size_t)count * sizeof *big);
+    if (l == NULL || big == NULL) {
+        /* cannot happen for the few values summed here; keep every rank in
+         * the collective with a stack copy of one value at a time */
+        free(l);
+        free(big);
+        for (int i = 0; i < count; i++) {
+            xsum_normalise(&s[i]);
+            MPI_Allreduce(MPI_IN_PLACE, s[i].l, XSUM_LIMBS, MPI_INT64_T, MPI_SUM, comm_of(d));
+            MPI_Allreduce(MPI_IN_PLACE, &s[i].big, 1, MPI_DOUBLE, MPI_SUM, comm_of(d));
+        }
+        return;
+    }
+    for (int i = 0; i < count; i++) {
+        xsum_normalise(&s[i]);
+        memcpy(l + (size_t)i * XSUM_LIMBS, s[i].l, sizeof s[i].l);
+        big[i] = s[i].big;
+    }
+    MPI_Allreduce(MPI_IN_PLACE, l, count * XSUM_LIMBS, MPI_INT64_T, MPI_SUM, comm_of(d));
+    MPI_Allreduce(MPI_IN_PLACE, big, count, MPI_DOUBLE, MPI_SUM, comm_of(d));
+    for (int i = 0; i < count; i++) {
+        memcpy(s[i].l, l + (size_t)i * XSUM_LIMBS, sizeof s[i].l);
+        s[i].big = big[i];
+    }
+    free(l);
+    free(big);
+}
+
+void decomp_max(const decomp_t *d, double *v, int count)
+{
+    if (d->comm != NULL && count > 0) {
+        MPI_Allreduce(MPI_IN_PLACE, v, count, MPI_DOUBLE, MPI_MAX, comm_of(d));
+    }
+}
+
+void decomp_bcast(const decomp_t *d, void *buf, size_t bytes)
+{
+    if (d->comm != NULL && bytes > 0) {
+        MPI_Bcast(buf, (int)bytes, MPI_BYTE, 0, comm_of(d));
+    }
+}
+
+void decomp_bcast_text(const decomp_t *d, char *buf, size_t cap, int root)
+{
+    if (d->comm != NULL && cap > 0) {
+        MPI_Bcast(buf, (int)cap, MPI_CHAR, root, comm_of(d));
+        buf[cap - 1] = '\0';
+    }
+}

@@ -1,0 +1,144 @@
+"""The fluid on several MPI ranks gives the same answer as on one (issue 13).
+
+Each case runs `coupler run` on 1 rank and under `mpirun -np 2` and `-np 4`
+(`--oversubscribe`: more ranks than this machine's cores) and asserts that
+the result files are identical, bit for bit: the time series of mass,
+momentum and kinetic energy (sums over all cells, exact sums: common/
+exact_sum.h) and, where the scene writes them, the field snapshots (each
+rank writes its block with parallel HDF5). A wrong halo exchange (a missing
+edge, a direction on the wrong side, a face of the domain treated as a rank
+face or the reverse) changes the flow within a few steps and fails these.
+"""
+import os
+import shutil
+import subprocess
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import COUPLER, ROOT
+
+MPIRUN = shutil.which("mpirun")
+pytestmark = pytest.mark.skipif(MPIRUN is None, reason="mpirun (openmpi-bin) is not installed")
+
+
+def mpirun(np_, *args, env=None):
+    cmd = [MPIRUN, "--allow-run-as-root", "--oversubscribe", "-np", str(np_), "-x", "OMP_NUM_THREADS"]
+    return subprocess.run(cmd + [str(COUPLER)] + list(args), capture_output=True, text=True, env=env, timeout=600)
+
+
+def env1():
+    e = dict(os.environ)
+    e["OMP_NUM_THREADS"] = "1"  # 4 ranks on 2 cores: spinning OpenMP barriers would crawl
+    return e
+
+
+def datasets(path):
+    out = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda n, o: out.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
+    return out
+
+
+def run_ranks(tmp_path, scene_text, name, ranks=(1, 2, 4), sets=()):
+    scene = tmp_path / f"{name}.yaml"
+    scene.write_text(scene_text)
+    outs = []
+    for np_ in ranks:
+        out = tmp_path / f"{name}_{np_}.h5"
+        args = ["run", str(scene), "-o", str(out), "--quiet"]
+        for s in sets:
+            args += ["--set", s]
+        if np_ == 1:
+            r = subprocess.run([str(COUPLER)] + args, capture_output=True, text=True, env=env1(), timeout=600)
+        else:
+            r = mpirun(np_, *args, env=env1())
+        assert r.returncode == 0, f"{np_} ranks: {r.stderr[-3000:]}"
+        outs.append(out)
+    return outs
+
+
+def assert_identical(outs):
+    ref = datasets(outs[0])
+    assert "output/mass" in ref or any(k.endswith("mass") for k in ref), sorted(ref)
+    for out in outs[1:]:
+        other = datasets(out)
+        assert sorted(other) == sorted(ref), out
+        for k, v in ref.items():
+            assert np.array_equal(v, other[k]), f"{out}: {k} differs (max {np.max(np.abs(v - other[k]))})"
+
+
+BOX = """
+domain:
+  size: [{lx}, {ly}, {lz}]
+  faces:
+{faces}
+fluid:
+  density: 1000.0
+  viscosity: 1.0e-6
+  dx: 1.0e-4
+  tau: 0.8
+  collision: {collision}
+  streaming: {streaming}
+  precision: {precision}
+  body_force: [3.0, 1.0, 0.0]
+  initial_velocity: [1.0e-4, -2.0e-4, 5.0e-5]
+run:
+  end_time: {end}
+  output_interval: {out}
+"""
+
+ALL_FACES = """    x_min: {type: velocity_inlet, velocity: [3.0e-3, 0.0, 1.0e-3], profile: parabolic}
+    x_max: {type: pressure_outlet, pressure: 0.0}
+    y_min: {type: free_slip}
+    y_max: {type: no_slip}
+    z_min: {type: no_slip}
+    z_max: {type: moving_wall, velocity: [4.0e-3, 2.0e-3, 0.0]}"""
+
+PERIODIC_X = """    y_min: {type: free_slip}
+    y_max: {type: free_slip}
+    z_min: {type: no_slip}
+    z_max: {type: moving_wall, velocity: [4.0e-3, 2.0e-3, 0.0]}"""
+
+
+def box(faces, streaming="in_place", precision="double", collision="trt", cells=(16, 12, 10), end=0.5):
+    dt = (0.8 - 0.5) / 3 * 1.0e-4 ** 2 / 1.0e-6  # tau, dx, nu: 1 ms
+    return BOX.format(lx=cells[0] * 1e-4, ly=cells[1] * 1e-4, lz=cells[2] * 1e-4, faces=faces,
+                      streaming=streaming, precision=precision, collision=collision, end=end, out=20 * dt)
+
+
+@pytest.mark.parametrize("streaming", ["in_place", "two_array"])
+def test_every_face_type_same_on_1_2_4_ranks(tmp_path, streaming):
+    """Inlet with a parabolic profile, pressure outlet, free slip, no slip and a
+    moving wall, cut along x, then x and y (MPI_Dims_create)."""
+    assert_identical(run_ranks(tmp_path, box(ALL_FACES, streaming), "faces_" + streaming))
+
+
+@pytest.mark.parametrize("ranks", ["[2, 1, 1]", "[4, 1, 1]", "[2, 2, 1]", "[1, 2, 2]"])
+def test_periodic_face_across_ranks(tmp_path, ranks):
+    """x periodic and cut: the periodic face is an exchange between the first
+    and the last rank along x (with 2 ranks, both neighbours are the same
+    rank); an edge of periodic and wall faces on the cut."""
+    n = eval(ranks)[0] * eval(ranks)[1] * eval(ranks)[2]
+    outs = run_ranks(tmp_path, box(PERIODIC_X), "per", ranks=(1, n), sets=[f"run.ranks={ranks}"])
+    assert_identical(outs)
+
+
+def test_single_precision_and_bgk(tmp_path):
+    assert_identical(run_ranks(tmp_path, box(ALL_FACES, "in_place", "single", "bgk"), "single", ranks=(1, 2)))
+
+
+def test_bad_rank_counts_are_refused(tmp_path):
+    """run.ranks that does not match the ranks mpirun started, and blocks
+    thinner than 3 cells, stop with the key and the numbers."""
+    scene = tmp_path / "bad.yaml"
+    scene.write_text(box(PERIODIC_X, end=0.01))
+    r = mpirun(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 4]",
+               env=env1())
+    assert r.returncode != 0
+    assert "run.ranks [1, 1, 4] makes 4 blocks, but mpirun started 2 ranks" in r.stderr
+    r = mpirun(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 2]",
+               "--set", "domain.size=[1.6e-3, 1.2e-3, 5.0e-4]", env=env1())
+    assert r.returncode != 0
+    assert "5 cells along z over 2 ranks leaves blocks of fewer than 3 cells" in r.stderr
