@@ -284,7 +284,7 @@ static const bad_scene_t CASES[] = {
     {26, "run: {output_interval: 1.0}", NULL, {NULL}, 1,
      "scene.yaml:26: run.end_time: required key is missing (libcyaml: Missing required mapping field: "
      "end_time); allowed in run: a mapping with the keys end_time (required), output_interval, fields, "
-     "field_interval"},
+     "field_interval, ranks"},
     {26, "run: 0.1", NULL, {NULL}, 1,
      "scene.yaml:26: run: wrong type or value (libcyaml: Expecting MAPPING, got event: SCALAR); allowed: "
      "a mapping with the keys end_time (required), output_interval, fields, field_interval, ranks"},
