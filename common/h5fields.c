@@ -295,7 +295,12 @@ static status_t select_block(const h5fields_t *w, hid_t fspace, int comps, hid_t
     if (empty) {
         return H5Sselect_none(fspace) < 0 || H5Sselect_none(*mspace) < 0 ? STATUS_ERROR : STATUS_OK;
     }
-    return H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, NULL, count, NULL) < 0 ? STATUS_ERROR : STATUS_OK;
+    /* a selection outside the dataset would fail in H5Dwrite on this process
+     * alone, and leave the others waiting in the collective transfer */
+    if (H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, NULL, count, NULL) < 0 || H5Sselect_valid(fspace) <= 0) {
+        return STATUS_ERROR;
+    }
+    return STATUS_OK;
 }
 
 static status_t write_one(h5fields_t *w, hid_t group, const char *group_name, const char *name, hid_t type,

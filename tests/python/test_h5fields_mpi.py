@@ -27,7 +27,8 @@ def mpirun():
     path = shutil.which("mpirun")
     if path is None:
         pytest.skip("mpirun is missing (Open MPI's mpirun, Debian package openmpi-bin)")
-    return [path, "--allow-run-as-root", "--oversubscribe"]
+    # a process stuck in a collective call: mpirun stops all of them
+    return [path, "--allow-run-as-root", "--oversubscribe", "--timeout", "60"]
 
 
 def write(folder, *args, np_=None, mode=None):
@@ -39,7 +40,7 @@ def write(folder, *args, np_=None, mode=None):
     cmd = [str(PROG), str(out), *map(str, args), *([mode] if mode else [])]
     if np_ is not None:
         cmd = mpirun() + ["-np", str(np_)] + cmd
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=90)
     assert proc.returncode == 0, f"{' '.join(cmd)} exited with {proc.returncode}:\n{proc.stdout}{proc.stderr}"
     return out, proc
 
