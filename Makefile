@@ -47,11 +47,15 @@ TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattic
                tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
                tests/rigid/test_input.c tests/rigid/test_lubrication.c tests/rigid/test_walls.c
 
+# The field writer on its own with MPI, for tests/python/test_h5fields_mpi.py
+# (parallel HDF5: each process its block, the file the same as one writes).
+H5MPI_SRC   := tests/mpi/h5fields_mpi.c common/h5fields.c common/status.c
+
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
 
 .PHONY: all run test validate bench report approach-report drag-report fmus clean deps fuzz
-all: $(BUILD)/coupler $(BUILD)/run_tests $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so
+all: $(BUILD)/coupler $(BUILD)/run_tests $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so $(BUILD)/h5fields_mpi
 
 deps:
 	@tools/install-deps.sh
@@ -65,6 +69,9 @@ $(BUILD)/coupler: $(LIB_OBJ) $(call obj,$(COUPLER_SRC))
 
 $(BUILD)/run_tests: $(LIB_OBJ) $(call obj,$(TEST_SRC))
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
+
+$(BUILD)/h5fields_mpi: $(call obj,$(H5MPI_SRC))
+	$(CC) $(CFLAGS) $^ -o $@ $(shell pkg-config --libs $(HDF5) $(MPI) 2>/dev/null)
 
 run: deps
 	@$(MAKE) --no-print-directory all

@@ -1,8 +1,28 @@
 /* h5fields.c — field snapshots and their XDMF index (h5fields.h). Every
- * HDF5 and stdio call is checked; a failure names the file and the object. */
+ * HDF5, MPI and stdio call is checked; a failure names the file and the
+ * object.
+ *
+ * One process (no part, or a part without a communicator) writes the whole
+ * grid with HDF5's default drivers, exactly as before MPI came. Several
+ * processes write through the MPI-IO driver: the datasets, groups and the
+ * `time` attribute are created by all of them with the global dimensions
+ * (HDF5 requires every call that changes the file's structure to be made by
+ * every process with the same arguments); each process selects its block as
+ * a hyperslab of the file and all write it in one collective transfer. The
+ * .xmf index is written by rank 0 only.
+ *
+ * Invariant: every process returns the same status from every call. Each
+ * stage that can fail on one process only (memory, a bad block, the index,
+ * an HDF5 call) ends in agree(), an MPI_Allreduce of (status, rank) with
+ * MPI_MAXLOC, before the next collective HDF5 call, so that no process
+ * enters a collective call that another one has left. A failure inside an
+ * HDF5 collective call that HDF5 itself reports on one process only can
+ * still leave the others waiting in MPI; that is beyond this layer. */
 #include "h5fields.h"
 
 #include <hdf5.h>
+#include <mpi.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,21 +31,60 @@ struct h5fields {
     char *path, *xmf;
     log_t log;
     hid_t file;
-    int n[3];
+    int n[3];         /* the grid */
+    int lo[3], nb[3]; /* this process's block */
     double dx;
-    long *steps; /* sorted, unique */
+    MPI_Comm comm;    /* ours (a duplicate), or MPI_COMM_NULL: serial */
+    int rank;         /* in comm; 0 when serial */
+    hid_t dxpl, dcpl; /* collective transfer, no fill; H5P_DEFAULT when serial */
+    long *steps;      /* sorted, unique; the same on every process */
     double *times;
     int nsnaps, cap;
 };
 
-static status_t open_file(const char *path, const int n[3], double dx, int resume, const log_t *log,
-                          h5fields_t **out);
+static status_t open_file(const char *path, const int n[3], double dx, const h5fields_part_t *part, int resume,
+                          const log_t *log, h5fields_t **out);
 static status_t remember(h5fields_t *w, long step, double time);
 static status_t write_xmf(h5fields_t *w);
 
 static status_t fail(const h5fields_t *w, const char *what)
 {
     return log_msg(&w->log, STATUS_ERROR, "fields", "%s: HDF5 error while writing %s", w->path, what);
+}
+
+/* The worst status of any process of comm (MPI_COMM_NULL: st itself). A
+ * process that did not fail itself says which one did, so that each log
+ * explains the status its process returns. */
+static status_t agree_on(MPI_Comm comm, const log_t *log, const char *path, status_t st, const char *what)
+{
+    if (comm == MPI_COMM_NULL) {
+        return st;
+    }
+    int rank = 0;
+    int mine[2] = {(int)st, 0}, all[2];
+    if (MPI_Comm_rank(comm, &rank) != MPI_SUCCESS) {
+        return log_msg(log, STATUS_FATAL, "fields", "%s: MPI error (MPI_Comm_rank) at %s", path, what);
+    }
+    mine[1] = rank;
+    if (MPI_Allreduce(mine, all, 1, MPI_2INT, MPI_MAXLOC, comm) != MPI_SUCCESS) {
+        return log_msg(log, STATUS_FATAL, "fields", "%s: MPI error (MPI_Allreduce) at %s", path, what);
+    }
+    if (all[0] > (int)st) {
+        log_msg(log, (status_t)all[0], "fields", "%s: %s failed on process %d", path, what, all[1]);
+    }
+    return (status_t)all[0];
+}
+
+static status_t agree(const h5fields_t *w, status_t st, const char *what)
+{
+    return agree_on(w->comm, &w->log, w->path != NULL ? w->path : "the field file", st, what);
+}
+
+static void close_plist(hid_t p)
+{
+    if (p >= 0 && p != H5P_DEFAULT) {
+        H5Pclose(p);
+    }
 }
 
 status_t h5fields_close(h5fields_t *w)
@@ -37,6 +96,12 @@ status_t h5fields_close(h5fields_t *w)
     if (w->file >= 0 && H5Fclose(w->file) < 0) {
         st = fail(w, "the file (closing)");
     }
+    close_plist(w->dxpl);
+    close_plist(w->dcpl);
+    if (w->comm != MPI_COMM_NULL) {
+        st = agree(w, st, "closing the field file");
+        MPI_Comm_free(&w->comm);
+    }
     free(w->steps);
     free(w->times);
     free(w->xmf);
@@ -45,29 +110,100 @@ status_t h5fields_close(h5fields_t *w)
     return st;
 }
 
-status_t h5fields_open(const char *path, const int n[3], double dx, const log_t *log, h5fields_t **out)
+status_t h5fields_open(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
+                       h5fields_t **out)
 {
-    return open_file(path, n, dx, 0, log, out);
+    return open_file(path, n, dx, part, 0, log, out);
 }
 
-static status_t open_file(const char *path, const int n[3], double dx, int resume, const log_t *log,
-                          h5fields_t **out)
+/* A duplicate of the caller's communicator for this writer's agreements, so
+ * that its reductions never meet the caller's messages (HDF5 duplicates it
+ * once more for the file). The caller's error handler comes with it. */
+static status_t join(const char *path, const void *comm, const log_t *log, MPI_Comm *out)
 {
-    *out = NULL;
-    h5fields_t *w = calloc(1, sizeof *w);
-    if (w == NULL) {
-        return log_msg(log, STATUS_FATAL, "fields", "out of memory for the field writer (%zu bytes)", sizeof *w);
+    *out = MPI_COMM_NULL;
+    int up = 0;
+    if (MPI_Initialized(&up) != MPI_SUCCESS || !up) {
+        return log_msg(log, STATUS_ERROR, "fields",
+                       "%s: the field file is to be written by several processes, but MPI is not initialised", path);
     }
-    w->file = -1;
-    if (log != NULL) {
-        w->log = *log;
+    const MPI_Comm parent = *(const MPI_Comm *)comm;
+    status_t st = STATUS_OK;
+    if (MPI_Comm_dup(parent, out) != MPI_SUCCESS) {
+        *out = MPI_COMM_NULL;
+        st = log_msg(log, STATUS_ERROR, "fields", "%s: MPI error (MPI_Comm_dup) for the field file", path);
     }
+    st = agree_on(parent, log, path, st, "duplicating the communicator");
+    if (st != STATUS_OK && *out != MPI_COMM_NULL) {
+        MPI_Comm_free(out);
+    }
+    return st;
+}
+
+/* The block must lie in the grid; one process alone must have all of it. */
+static status_t check_block(const h5fields_t *w)
+{
+    int inside = 1, whole = 1;
+    for (int a = 0; a < 3; a++) {
+        inside = inside && w->lo[a] >= 0 && w->nb[a] >= 0 && w->nb[a] <= w->n[a] - w->lo[a];
+        whole = whole && w->lo[a] == 0 && w->nb[a] == w->n[a];
+    }
+    if (!inside || (w->comm == MPI_COMM_NULL && !whole)) {
+        return log_msg(&w->log, STATUS_ERROR, "fields",
+                       "%s: the block of cells %d..%d x %d..%d x %d..%d (0-based, first..last) is not %s the grid of "
+                       "%d x %d x %d cells",
+                       w->path, w->lo[0], w->lo[0] + w->nb[0] - 1, w->lo[1], w->lo[1] + w->nb[1] - 1, w->lo[2],
+                       w->lo[2] + w->nb[2] - 1, w->comm == MPI_COMM_NULL ? "all of" : "inside", w->n[0], w->n[1],
+                       w->n[2]);
+    }
+    return STATUS_OK;
+}
+
+/* The blocks tile the grid: at least their cells add up to it (collective). */
+static status_t check_tiling(const h5fields_t *w)
+{
+    const int64_t grid = (int64_t)w->n[0] * w->n[1] * w->n[2];
+    int64_t mine = (int64_t)w->nb[0] * w->nb[1] * w->nb[2], all = 0;
+    if (MPI_Allreduce(&mine, &all, 1, MPI_INT64_T, MPI_SUM, w->comm) != MPI_SUCCESS) {
+        return log_msg(&w->log, STATUS_FATAL, "fields", "%s: MPI error (MPI_Allreduce) adding up the blocks",
+                       w->path);
+    }
+    if (all != grid) {
+        return log_msg(&w->log, STATUS_ERROR, "fields",
+                       "%s: the blocks of the processes have %lld cells together, the grid of %d x %d x %d has %lld "
+                       "(the blocks must tile the grid)",
+                       w->path, (long long)all, w->n[0], w->n[1], w->n[2], (long long)grid);
+    }
+    return STATUS_OK;
+}
+
+/* The property lists of parallel writing: the MPI-IO driver for the file,
+ * collective transfers, and no fill values (parallel HDF5 allocates a
+ * dataset when it is created and would write the fill value over all of it
+ * before the blocks overwrite it all again). */
+static status_t parallel_lists(h5fields_t *w, hid_t *fapl)
+{
+    *fapl = H5Pcreate(H5P_FILE_ACCESS);
+    w->dxpl = H5Pcreate(H5P_DATASET_XFER);
+    w->dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    if (*fapl < 0 || w->dxpl < 0 || w->dcpl < 0 || H5Pset_fapl_mpio(*fapl, w->comm, MPI_INFO_NULL) < 0 ||
+        H5Pset_dxpl_mpio(w->dxpl, H5FD_MPIO_COLLECTIVE) < 0 || H5Pset_fill_time(w->dcpl, H5D_FILL_TIME_NEVER) < 0) {
+        return log_msg(&w->log, STATUS_ERROR, "fields", "%s: HDF5 error setting up parallel writing", w->path);
+    }
+    return STATUS_OK;
+}
+
+/* What needs no other process: the paths, the block, this process's rank
+ * and the property lists of parallel writing. */
+static status_t set_up(h5fields_t *w, const char *path, const int n[3], double dx, const h5fields_part_t *part,
+                       hid_t *fapl)
+{
     const size_t len = strlen(path);
     w->path = strdup(path);
     w->xmf = malloc(len + 5);
     if (w->path == NULL || w->xmf == NULL) {
-        h5fields_close(w);
-        return log_msg(log, STATUS_FATAL, "fields", "out of memory for the field file paths (%zu bytes)", 2 * len + 6);
+        return log_msg(&w->log, STATUS_FATAL, "fields", "out of memory for the field file paths (%zu bytes)",
+                       2 * len + 6);
     }
     memcpy(w->xmf, path, len + 1);
     char *dot = strrchr(w->xmf, '.'), *slash = strrchr(w->xmf, '/');
@@ -76,58 +212,168 @@ static status_t open_file(const char *path, const int n[3], double dx, int resum
     }
     strcat(w->xmf, ".xmf");
     memcpy(w->n, n, sizeof w->n);
+    for (int a = 0; a < 3; a++) {
+        w->lo[a] = part != NULL ? part->lo[a] : 0;
+        w->nb[a] = part != NULL ? part->n[a] : n[a];
+    }
     w->dx = dx;
+    status_t st = check_block(w);
+    if (w->comm != MPI_COMM_NULL) {
+        if (MPI_Comm_rank(w->comm, &w->rank) != MPI_SUCCESS) {
+            st = status_worst(st, log_msg(&w->log, STATUS_FATAL, "fields", "%s: MPI error (MPI_Comm_rank)", path));
+        }
+        st = status_worst(st, parallel_lists(w, fapl));
+    }
+    return st;
+}
+
+static status_t open_file(const char *path, const int n[3], double dx, const h5fields_part_t *part, int resume,
+                          const log_t *log, h5fields_t **out)
+{
+    *out = NULL;
+    MPI_Comm comm = MPI_COMM_NULL;
+    if (part != NULL && part->comm != NULL) {
+        const status_t st = join(path, part->comm, log, &comm);
+        if (st != STATUS_OK) {
+            return st;
+        }
+    }
+    h5fields_t *w = calloc(1, sizeof *w);
+    status_t st = STATUS_OK;
+    if (w == NULL) {
+        st = log_msg(log, STATUS_FATAL, "fields", "out of memory for the field writer (%zu bytes)", sizeof *w);
+    }
+    if ((st = agree_on(comm, log, path, st, "allocating the field writer")) != STATUS_OK) {
+        free(w);
+        if (comm != MPI_COMM_NULL) {
+            MPI_Comm_free(&comm);
+        }
+        return st;
+    }
+    w->file = -1;
+    w->dxpl = w->dcpl = H5P_DEFAULT;
+    w->comm = comm;
+    if (log != NULL) {
+        w->log = *log;
+    }
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL); /* errors are reported by us */
-    w->file = resume ? H5Fopen(path, H5F_ACC_RDWR, H5P_DEFAULT) : H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-    if (w->file < 0) {
-        log_msg(log, STATUS_ERROR, "fields", "%s: cannot %s the field file (%s)", path, resume ? "open" : "create",
-                resume ? "is it there, an HDF5 file, writable?" : "does the folder exist and is it writable?");
+    hid_t fapl = H5P_DEFAULT;
+    st = agree_on(comm, log, path, set_up(w, path, n, dx, part, &fapl), "setting up the field writer");
+    if (st == STATUS_OK && comm != MPI_COMM_NULL) {
+        st = check_tiling(w); /* the same sum on every process */
+    }
+    if (st == STATUS_OK) {
+        w->file = resume ? H5Fopen(path, H5F_ACC_RDWR, fapl) : H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+        if (w->file < 0) {
+            st = log_msg(log, STATUS_ERROR, "fields", "%s: cannot %s the field file (%s)", path,
+                         resume ? "open" : "create",
+                         resume ? "is it there, an HDF5 file, writable?" : "does the folder exist and is it writable?");
+        }
+        st = agree(w, st, resume ? "opening the field file" : "creating the field file");
+    }
+    close_plist(fapl);
+    if (st != STATUS_OK) {
         h5fields_close(w);
-        return STATUS_ERROR;
+        return st;
     }
     *out = w;
     return STATUS_OK;
 }
 
-static status_t write_one(h5fields_t *w, hid_t group, const char *name, hid_t type, const void *data, int comps)
+/* This process's block as a hyperslab of the file's dataspace, and the
+ * dataspace of its buffer (nb cells, x fastest, comps values per cell). */
+static status_t select_block(const h5fields_t *w, hid_t fspace, int comps, hid_t *mspace)
 {
+    const hsize_t start[4] = {(hsize_t)w->lo[2], (hsize_t)w->lo[1], (hsize_t)w->lo[0], 0};
+    const hsize_t count[4] = {(hsize_t)w->nb[2], (hsize_t)w->nb[1], (hsize_t)w->nb[0], (hsize_t)comps};
+    const int empty = w->nb[0] == 0 || w->nb[1] == 0 || w->nb[2] == 0;
+    *mspace = H5Screate_simple(comps > 1 ? 4 : 3, count, NULL);
+    if (*mspace < 0) {
+        return STATUS_ERROR;
+    }
+    /* an empty block still takes part in the collective write, with nothing */
+    if (empty) {
+        return H5Sselect_none(fspace) < 0 || H5Sselect_none(*mspace) < 0 ? STATUS_ERROR : STATUS_OK;
+    }
+    /* a selection outside the dataset would fail in H5Dwrite on this process
+     * alone, and leave the others waiting in the collective transfer */
+    if (H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, NULL, count, NULL) < 0 || H5Sselect_valid(fspace) <= 0) {
+        return STATUS_ERROR;
+    }
+    return STATUS_OK;
+}
+
+static status_t write_one(h5fields_t *w, hid_t group, const char *group_name, const char *name, hid_t type,
+                          const void *data, int comps)
+{
+    char what[96];
+    snprintf(what, sizeof what, "%s/%s", group_name, name);
     hsize_t dims[4] = {(hsize_t)w->n[2], (hsize_t)w->n[1], (hsize_t)w->n[0], (hsize_t)comps};
-    hid_t space = H5Screate_simple(comps > 1 ? 4 : 3, dims, NULL);
+    hid_t space = H5Screate_simple(comps > 1 ? 4 : 3, dims, NULL), mspace = H5S_ALL, fspace = H5S_ALL;
     status_t st = STATUS_OK;
     if (space < 0) {
-        return fail(w, name);
+        st = fail(w, what);
+    } else if (w->comm != MPI_COMM_NULL) {
+        fspace = space;
+        if (select_block(w, fspace, comps, &mspace) != STATUS_OK) {
+            st = fail(w, what);
+        }
     }
-    hid_t d = H5Dcreate2(group, name, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    if (d < 0 || H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) {
-        st = fail(w, name);
+    st = agree(w, st, what);
+    hid_t d = -1;
+    if (st == STATUS_OK) {
+        d = H5Dcreate2(group, name, type, space, H5P_DEFAULT, w->dcpl, H5P_DEFAULT);
+        st = agree(w, d < 0 ? fail(w, what) : STATUS_OK, what);
+    }
+    if (st == STATUS_OK && H5Dwrite(d, type, mspace, fspace, w->dxpl, data) < 0) {
+        st = fail(w, what);
     }
     if (d >= 0 && H5Dclose(d) < 0) {
-        st = fail(w, name);
+        st = fail(w, what);
     }
-    H5Sclose(space);
+    st = agree(w, st, what);
+    if (mspace >= 0 && mspace != H5S_ALL) {
+        H5Sclose(mspace);
+    }
+    if (space >= 0) {
+        H5Sclose(space);
+    }
     return st;
 }
 
-static status_t write_time(h5fields_t *w, hid_t group, double time)
+static status_t write_time(h5fields_t *w, hid_t group, const char *group_name, double time)
 {
+    char what[96];
+    snprintf(what, sizeof what, "the time attribute of %s", group_name);
     hid_t space = H5Screate(H5S_SCALAR);
-    status_t st = STATUS_OK;
-    if (space < 0) {
-        return fail(w, "the time attribute");
+    status_t st = agree(w, space < 0 ? fail(w, what) : STATUS_OK, what);
+    if (st != STATUS_OK) {
+        if (space >= 0) {
+            H5Sclose(space);
+        }
+        return st;
     }
+    /* with several processes, each writes the same value (HDF5 requires it) */
     hid_t a = H5Acreate2(group, "time", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT);
-    if (a < 0 || H5Awrite(a, H5T_NATIVE_DOUBLE, &time) < 0) {
-        st = fail(w, "the time attribute");
+    st = agree(w, a < 0 ? fail(w, what) : STATUS_OK, what);
+    if (st == STATUS_OK && H5Awrite(a, H5T_NATIVE_DOUBLE, &time) < 0) {
+        st = fail(w, what);
     }
     if (a >= 0) {
         H5Aclose(a);
     }
     H5Sclose(space);
-    return st;
+    return agree(w, st, what);
 }
 
 /* The XDMF index: a temporal collection of co-rectilinear grids whose
- * attributes point into the .h5 file (XDMF 2, as ParaView reads it). */
+ * attributes point into the .h5 file (XDMF 2, as ParaView reads it). Rank 0
+ * writes it; the others learn its status. */
+static status_t write_xmf_once(h5fields_t *w)
+{
+    return agree(w, w->rank == 0 ? write_xmf(w) : STATUS_OK, "writing the XDMF index");
+}
+
 static status_t write_xmf(h5fields_t *w)
 {
     char tmp[4200];
@@ -211,34 +457,45 @@ status_t h5fields_write(h5fields_t *w, long step, double time, const double *den
 {
     char name[64];
     snprintf(name, sizeof name, "/fields/%06ld", step);
+    status_t st = STATUS_OK;
     if (H5Lexists(w->file, "/fields", H5P_DEFAULT) > 0 && H5Lexists(w->file, name, H5P_DEFAULT) > 0 &&
         H5Ldelete(w->file, name, H5P_DEFAULT) < 0) {
-        return fail(w, name);
+        st = fail(w, name);
     }
     hid_t lcpl = H5Pcreate(H5P_LINK_CREATE);
-    if (lcpl < 0 || H5Pset_create_intermediate_group(lcpl, 1) < 0) {
+    if (st == STATUS_OK && (lcpl < 0 || H5Pset_create_intermediate_group(lcpl, 1) < 0)) {
+        st = fail(w, name);
+    }
+    if ((st = agree(w, st, name)) != STATUS_OK) {
         if (lcpl >= 0) {
             H5Pclose(lcpl);
         }
-        return fail(w, name);
+        return st;
     }
     hid_t g = H5Gcreate2(w->file, name, lcpl, H5P_DEFAULT, H5P_DEFAULT);
     H5Pclose(lcpl);
-    if (g < 0) {
-        return fail(w, name);
-    }
-    status_t st = write_one(w, g, "density", H5T_NATIVE_DOUBLE, density, 1);
-    st = status_worst(st, write_one(w, g, "velocity", H5T_NATIVE_DOUBLE, velocity, 3));
-    st = status_worst(st, write_one(w, g, "flags", H5T_NATIVE_UCHAR, flags, 1));
-    st = status_worst(st, write_time(w, g, time));
-    if (H5Gclose(g) < 0 || H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0) {
-        st = status_worst(st, fail(w, name));
-    }
-    if (st != STATUS_OK) {
+    if ((st = agree(w, g < 0 ? fail(w, name) : STATUS_OK, name)) != STATUS_OK) {
+        if (g >= 0) {
+            H5Gclose(g);
+        }
         return st;
     }
-    st = remember(w, step, time);
-    return st != STATUS_OK ? st : write_xmf(w);
+    st = write_one(w, g, name, "density", H5T_NATIVE_DOUBLE, density, 1);
+    st = status_worst(st, write_one(w, g, name, "velocity", H5T_NATIVE_DOUBLE, velocity, 3));
+    st = status_worst(st, write_one(w, g, name, "flags", H5T_NATIVE_UCHAR, flags, 1));
+    st = status_worst(st, write_time(w, g, name, time));
+    /* both on every process, whatever the other did: both are collective */
+    if (H5Gclose(g) < 0) {
+        st = status_worst(st, fail(w, name));
+    }
+    if (H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0) {
+        st = status_worst(st, fail(w, name));
+    }
+    if ((st = agree(w, st, name)) != STATUS_OK) {
+        return st;
+    }
+    st = agree(w, remember(w, step, time), "the list of snapshots");
+    return st != STATUS_OK ? st : write_xmf_once(w);
 }
 
 /* Every snapshot group already in the file, into the sorted list. */
@@ -263,13 +520,15 @@ static herr_t found_snapshot(hid_t group, const char *name, const H5L_info_t *in
     return remember(w, step, time) == STATUS_OK ? 0 : -1;
 }
 
-status_t h5fields_resume(const char *path, const int n[3], double dx, const log_t *log, h5fields_t **out)
+status_t h5fields_resume(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
+                         h5fields_t **out)
 {
     h5fields_t *w;
-    status_t st = open_file(path, n, dx, 1, log, &w);
+    status_t st = open_file(path, n, dx, part, 1, log, &w);
     if (st != STATUS_OK) {
         return st;
     }
+    /* reading only: each process reads the list for itself */
     if (H5Lexists(w->file, "/fields", H5P_DEFAULT) > 0) {
         hid_t g = H5Gopen2(w->file, "/fields", H5P_DEFAULT);
         if (g < 0 || H5Literate(g, H5_INDEX_NAME, H5_ITER_INC, NULL, found_snapshot, w) < 0) {
@@ -279,7 +538,7 @@ status_t h5fields_resume(const char *path, const int n[3], double dx, const log_
             H5Gclose(g);
         }
     }
-    if (st != STATUS_OK) {
+    if ((st = agree(w, st, "reading the snapshots already written")) != STATUS_OK) {
         h5fields_close(w);
         return st;
     }
@@ -295,13 +554,18 @@ status_t h5fields_drop_after(h5fields_t *w, long step)
     while (w->nsnaps > 0 && w->steps[w->nsnaps - 1] > step) {
         char name[64];
         snprintf(name, sizeof name, "/fields/%06ld", w->steps[w->nsnaps - 1]);
+        status_t st = STATUS_OK;
         if (H5Lexists(w->file, name, H5P_DEFAULT) > 0 && H5Ldelete(w->file, name, H5P_DEFAULT) < 0) {
-            return fail(w, name);
+            st = fail(w, name);
+        }
+        if ((st = agree(w, st, name)) != STATUS_OK) {
+            return st;
         }
         w->nsnaps--;
     }
-    if (H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0) {
-        return fail(w, "the file (flushing)");
+    status_t st = H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0 ? fail(w, "the file (flushing)") : STATUS_OK;
+    if ((st = agree(w, st, "flushing the field file")) != STATUS_OK) {
+        return st;
     }
-    return write_xmf(w);
+    return write_xmf_once(w);
 }

@@ -7,7 +7,16 @@
  * a co-rectilinear grid (XDMF 2, as ParaView reads it) and is rewritten
  * after every snapshot, so a killed run leaves both files readable. Writing
  * a step again (after an FMU state restore) replaces that snapshot. Used by
- * the fluid FMU (fluid/fluid_fmi.c); hdf5.h appears only in the writers. */
+ * the fluid FMU (fluid/fluid_fmi.c); hdf5.h and mpi.h appear only in the
+ * writers.
+ *
+ * Several MPI processes may write one file together (parallel HDF5), each
+ * its block of the grid; the file is the same as one process writes. Then
+ * every function below is collective over the communicator: every process
+ * calls it with the same arguments (but its own block and data) and every
+ * process gets the same status back (a failure on one process is a failure
+ * on all, and each says which process failed). h5fields_close must come
+ * before MPI_Finalize. */
 #ifndef COMMON_H5FIELDS_H
 #define COMMON_H5FIELDS_H
 
@@ -15,13 +24,28 @@
 
 typedef struct h5fields h5fields_t;
 
-/* Creates (truncates) path; errors name the file. */
-status_t h5fields_open(const char *path, const int n[3], double dx, const log_t *log, h5fields_t **out);
+/* The block of the grid this process writes: cells lo .. lo + n - 1 (0-based,
+ * global); comm: a pointer to the MPI_Comm of the processes that write the
+ * file together (each its block, the blocks tiling the grid), or NULL: one
+ * process writes the whole grid (lo 0, n the grid). */
+typedef struct {
+    int lo[3], n[3];
+    const void *comm; /* const MPI_Comm *, or NULL */
+} h5fields_part_t;
+
+/* Creates (truncates) path for a grid of n cells of size dx; part NULL: the
+ * whole grid from this process, without any MPI call (MPI need not be
+ * initialised). Errors name the file. */
+status_t h5fields_open(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
+                       h5fields_t **out);
 /* Opens the field file of an interrupted run to continue it: the snapshots
  * already in it stay and are listed in the index. */
-status_t h5fields_resume(const char *path, const int n[3], double dx, const log_t *log, h5fields_t **out);
+status_t h5fields_resume(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
+                         h5fields_t **out);
 /* Drops the snapshots after `step` (a restored state continues from there). */
 status_t h5fields_drop_after(h5fields_t *w, long step);
+/* density [nb], velocity [nb][3], flags [nb]: this process's block of part.n
+ * cells (the whole grid without a part), x fastest. */
 status_t h5fields_write(h5fields_t *w, long step, double time, const double *density, const double *velocity,
                         const unsigned char *flags);
 /* Closes the file and frees w (NULL is fine). */

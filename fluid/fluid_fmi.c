@@ -385,11 +385,12 @@ static status_t fluid_fmi_set_string(void *comp, const fmi_var_t *var, const cha
     int n[3];
     fluid_cells(m->fl, n);
     const double dx = fluid_units(m->fl)->dx;
+    /* part NULL: this process writes the whole grid (the fluid is not decomposed) */
     if (var->what == Q_FIELDS_RESUME) {
         /* the snapshots continue after the state restore (fluid_fmi_state_restore) */
-        return h5fields_resume(value, n, dx, log, &m->fields);
+        return h5fields_resume(value, n, dx, NULL, log, &m->fields);
     }
-    status_t st = h5fields_open(value, n, dx, log, &m->fields);
+    status_t st = h5fields_open(value, n, dx, NULL, log, &m->fields);
     if (st >= STATUS_ERROR) {
         return st;
     }
