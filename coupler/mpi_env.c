@@ -17,6 +17,11 @@ int mpi_env_init(int *argc, char ***argv)
     if (!launched_by_mpirun()) {
         return 0;
     }
+    /* Open MPI 4.1's own MPI-IO (OMPIO) wrote parts of the parallel field
+     * snapshots wrong here (blocks of zeros and garbage, different from run
+     * to run; tests/python/test_mpi.py); ROMIO writes them right. A user's
+     * choice (OMPI_MCA_io set, or --mca io) is kept. */
+    setenv("OMPI_MCA_io", "romio321", 0);
     int provided = 0;
     /* OpenMP threads inside a rank; only the main thread calls MPI */
     if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {

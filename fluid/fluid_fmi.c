@@ -307,8 +307,10 @@ static status_t fluid_fmi_create(const scene_t *s, double t0, const log_t *log, 
         fluid_fmi_free(m);
         return st;
     }
-    int n[3];
-    fluid_cells(m->fl, n);
+    /* the fields of this rank's block (the whole grid on one rank) */
+    int lo[3], n[3];
+    const void *comm;
+    fluid_block(m->fl, lo, n, &comm);
     m->ncells = (size_t)n[0] * n[1] * n[2];
     m->scene = s;
     m->log = *log;
@@ -385,12 +387,16 @@ static status_t fluid_fmi_set_string(void *comp, const fmi_var_t *var, const cha
     int n[3];
     fluid_cells(m->fl, n);
     const double dx = fluid_units(m->fl)->dx;
-    /* part NULL: this process writes the whole grid (the fluid is not decomposed) */
+    /* on several MPI ranks each writes its block of the same file (parallel
+     * HDF5); on one, part NULL: this process writes the whole grid */
+    h5fields_part_t part;
+    fluid_block(m->fl, part.lo, part.n, &part.comm);
+    const h5fields_part_t *part_ptr = part.comm != NULL ? &part : NULL;
     if (var->what == Q_FIELDS_RESUME) {
         /* the snapshots continue after the state restore (fluid_fmi_state_restore) */
-        return h5fields_resume(value, n, dx, NULL, log, &m->fields);
+        return h5fields_resume(value, n, dx, part_ptr, log, &m->fields);
     }
-    status_t st = h5fields_open(value, n, dx, NULL, log, &m->fields);
+    status_t st = h5fields_open(value, n, dx, part_ptr, log, &m->fields);
     if (st >= STATUS_ERROR) {
         return st;
     }

@@ -160,6 +160,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: unknown mode %s\n", argv[0], mode);
         return 2;
     }
+    setenv("OMPI_MCA_io", "romio321", 0); /* as the coupler does (coupler/mpi_env.c) */
     if (MPI_Init(&argc, &argv) != MPI_SUCCESS) {
         fprintf(stderr, "%s: MPI_Init failed\n", argv[0]);
         return 2;
