@@ -17,7 +17,35 @@ static void split(int n, int p, int c, int *lo, int *len)
     *lo = c * base + (c < extra ? c : extra);
 }
 
-status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t *log)
+void decomp_block(const decomp_t *d, const int coords[3], int lo[3], int n[3])
+{
+    for (int a = 0; a < 3; a++) {
+        split(d->N[a], d->dims[a], coords[a], &lo[a], &n[a]);
+    }
+}
+
+/* The rank of the block at coords (wrapped on periodic axes), or -1 beyond a
+ * face of the domain: row-major, z fastest, as MPI_Cart_create numbers the
+ * ranks without reordering. */
+static int rank_at(const decomp_t *d, const int coords[3])
+{
+    int r = 0;
+    for (int a = 0; a < 3; a++) {
+        int c = coords[a];
+        if (c < 0 || c >= d->dims[a]) {
+            if (!d->periodic[a]) {
+                return -1;
+            }
+            c = (c % d->dims[a] + d->dims[a]) % d->dims[a];
+        }
+        r = r * d->dims[a] + c;
+    }
+    return r;
+}
+
+int decomp_rank_at(const decomp_t *d, const int coords[3]) { return rank_at(d, coords); }
+
+status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world, int rank, const log_t *log)
 {
     memset(d, 0, sizeof *d);
     d->size = 1;
@@ -26,15 +54,7 @@ status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t 
         d->n[a] = N[a];
         d->dims[a] = 1;
         d->nbr[a][0] = d->nbr[a][1] = -1;
-    }
-    int inited = 0, world = 1;
-    MPI_Initialized(&inited);
-    if (inited) {
-        int fin = 0;
-        MPI_Finalized(&fin);
-        if (!fin) {
-            MPI_Comm_size(MPI_COMM_WORLD, &world);
-        }
+        d->periodic[a] = s->domain.faces[2 * a].type == FACE_PERIODIC;
     }
     const char *path = s->path ? s->path : "(scene)";
     const int set = s->run.ranks[0] > 0;
@@ -49,7 +69,7 @@ status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t 
         }
         return STATUS_OK;
     }
-    int dims[3] = {0, 0, 0}, periods[3];
+    int dims[3] = {0, 0, 0};
     if (set) {
         memcpy(dims, s->run.ranks, sizeof dims);
         if (dims[0] * dims[1] * dims[2] != world) {
@@ -64,7 +84,7 @@ status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t 
         for (int a = 0; a < 3; a++) {
             dims[a] = N[a] < 2 * DECOMP_MIN_CELLS ? 1 : 0;
         }
-        if (dims[0] * dims[1] * dims[2] == 1 && world > 1) {
+        if (dims[0] * dims[1] * dims[2] == 1) {
             return log_msg(log, STATUS_ERROR, "fluid",
                            "%s: the grid of %d x %d x %d cells has no axis of %d cells or more to cut over %d "
                            "ranks: use one rank, or more cells (fluid.dx)",
@@ -75,7 +95,6 @@ status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t 
         }
     }
     for (int a = 0; a < 3; a++) {
-        periods[a] = s->domain.faces[2 * a].type == FACE_PERIODIC;
         if (dims[a] > 1 && N[a] / dims[a] < DECOMP_MIN_CELLS) {
             return log_msg(log, STATUS_ERROR, "fluid",
                            "%s: %d cells along %c over %d ranks leaves blocks of fewer than %d cells; use fewer "
@@ -83,25 +102,23 @@ status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t 
                            path, N[a], "xyz"[a], dims[a], DECOMP_MIN_CELLS, "xyz"[a]);
         }
     }
-    MPI_Comm *cart = malloc(sizeof *cart);
-    if (cart == NULL) {
-        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the communicator");
-    }
-    /* no reordering: world rank 0 (which writes the outputs) keeps block 0 */
-    MPI_Cart_create(MPI_COMM_WORLD, 3, dims, periods, 0, cart);
-    d->comm = cart;
-    MPI_Comm_size(*cart, &d->size);
-    MPI_Comm_rank(*cart, &d->rank);
-    MPI_Cart_coords(*cart, d->rank, 3, d->coords);
+    d->size = world;
+    d->rank = rank;
     for (int a = 0; a < 3; a++) {
         d->dims[a] = dims[a];
-        split(N[a], dims[a], d->coords[a], &d->lo[a], &d->n[a]);
-        int lo_rank, hi_rank;
-        MPI_Cart_shift(*cart, a, 1, &lo_rank, &hi_rank);
+    }
+    /* row-major coordinates of the rank, z fastest */
+    d->coords[2] = rank % dims[2];
+    d->coords[1] = rank / dims[2] % dims[1];
+    d->coords[0] = rank / (dims[1] * dims[2]);
+    decomp_block(d, d->coords, d->lo, d->n);
+    for (int a = 0; a < 3; a++) {
         /* a periodic axis with one rank is the local copy (walls.c) */
-        const int local = dims[a] == 1;
-        d->nbr[a][0] = local || lo_rank == MPI_PROC_NULL ? -1 : lo_rank;
-        d->nbr[a][1] = local || hi_rank == MPI_PROC_NULL ? -1 : hi_rank;
+        for (int side = 0; side < 2; side++) {
+            int c[3] = {d->coords[0], d->coords[1], d->coords[2]};
+            c[a] += side == 0 ? -1 : 1;
+            d->nbr[a][side] = dims[a] == 1 ? -1 : rank_at(d, c);
+        }
     }
     /* bytes sent per step: 5 populations per face cell, over the ranges of
      * walls.c periodic_fill: the ghost rows of the axes before a, and of
@@ -114,7 +131,7 @@ status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t 
             }
             int len = d->n[b];
             for (int side = 0; side < 2; side++) {
-                const int wall = d->nbr[b][side] < 0 && !(periods[b] && dims[b] == 1);
+                const int wall = d->nbr[b][side] < 0 && !(d->periodic[b] && dims[b] == 1);
                 len += b < a || wall ? 1 : 0;
             }
             cells *= len;
@@ -124,6 +141,39 @@ status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t 
                 d->halo_bytes += 5.0 * cells * (s->fluid.precision == PRECISION_SINGLE ? 4.0 : 8.0);
             }
         }
+    }
+    return STATUS_OK;
+}
+
+status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t *log)
+{
+    int inited = 0, fin = 0, world = 1, rank = 0;
+    MPI_Initialized(&inited);
+    MPI_Finalized(&fin);
+    if (inited && !fin) {
+        MPI_Comm_size(MPI_COMM_WORLD, &world);
+        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    }
+    status_t st = decomp_layout(d, s, N, world, rank, log);
+    if (st >= STATUS_ERROR || world == 1) {
+        return st;
+    }
+    MPI_Comm *cart = malloc(sizeof *cart);
+    if (cart == NULL) {
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the communicator");
+    }
+    /* no reordering: world rank 0 (which writes the outputs) keeps block 0,
+     * and the ranks are row-major as decomp_layout numbers them */
+    MPI_Cart_create(MPI_COMM_WORLD, 3, d->dims, d->periodic, 0, cart);
+    d->comm = cart;
+    int coords[3];
+    MPI_Comm_rank(*cart, &rank);
+    MPI_Cart_coords(*cart, rank, 3, coords);
+    if (rank != d->rank || coords[0] != d->coords[0] || coords[1] != d->coords[1] || coords[2] != d->coords[2]) {
+        return log_msg(log, STATUS_ERROR, "fluid",
+                       "MPI_Cart_create placed rank %d at (%d, %d, %d), not at (%d, %d, %d) as the decomposition "
+                       "assumes (row-major): this MPI library numbers Cartesian ranks otherwise",
+                       rank, coords[0], coords[1], coords[2], d->coords[0], d->coords[1], d->coords[2]);
     }
     return STATUS_OK;
 }

@@ -28,9 +28,11 @@
 
 #include <stddef.h>
 
-/* Fewest cells of a block along an axis: the boundary schemes and the
- * refill of spheres reach two cells back from a face cell. */
-enum { DECOMP_MIN_CELLS = 3 };
+/* Fewest cells of a block along a cut axis: the boundary schemes and the
+ * refill of spheres reach two cells beyond a block face, and those two
+ * layers of the blocks before and after a block must not be the same cells
+ * (a periodic axis cut in two). */
+enum { DECOMP_MIN_CELLS = 4 };
 
 typedef struct {
     int size, rank;        /* 1 and 0 without MPI */
@@ -38,6 +40,7 @@ typedef struct {
     int N[3];              /* global interior cells */
     int lo[3], n[3];       /* this block: global cells lo .. lo + n - 1 (0-based) */
     int nbr[3][2];         /* rank across face (axis, side) by exchange; -1: a face of the domain */
+    int periodic[3];       /* periodic axes of the domain */
     void *comm;            /* MPI_Comm * (the Cartesian one) or NULL */
     unsigned char *buf;    /* send and receive buffers of one axis */
     size_t cap;
@@ -48,6 +51,14 @@ typedef struct {
  * and run.ranks. */
 status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t *log);
 void decomp_free(decomp_t *d);
+/* The blocks of `world` ranks without a communicator, for rank `rank`: what
+ * decomp_init sets up (for `coupler check --ranks N`). With world > 1 MPI
+ * must be initialised (MPI_Dims_create). */
+status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world, int rank, const log_t *log);
+/* The block of the rank at coords: global first cell and cells. */
+void decomp_block(const decomp_t *d, const int coords[3], int lo[3], int n[3]);
+/* The rank at coords (wrapped on periodic axes), -1 beyond a domain face. */
+int decomp_rank_at(const decomp_t *d, const int coords[3]);
 
 static inline int decomp_parallel(const decomp_t *d) { return d->comm != NULL; }
 /* 1 when face (axis a, side) of the block is filled by the exchange. */

@@ -146,7 +146,7 @@ def test_single_precision_and_bgk(tmp_path):
 
 def test_bad_rank_counts_are_refused(tmp_path):
     """run.ranks that does not match the ranks mpirun started, and blocks
-    thinner than 3 cells, stop with the key and the numbers."""
+    thinner than 4 cells, stop with the key and the numbers."""
     scene = tmp_path / "bad.yaml"
     scene.write_text(box(PERIODIC_X, end=0.01))
     r = mpirun(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 4]",
@@ -156,4 +156,4 @@ def test_bad_rank_counts_are_refused(tmp_path):
     r = mpirun(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 2]",
                "--set", "domain.size=[1.6e-3, 1.2e-3, 5.0e-4]", env=env1())
     assert r.returncode != 0
-    assert "5 cells along z over 2 ranks leaves blocks of fewer than 3 cells" in r.stderr
+    assert "5 cells along z over 2 ranks leaves blocks of fewer than 4 cells" in r.stderr
