@@ -142,14 +142,6 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
         free(fl);
         return st;
     }
-    if (fl->d.size > 1 && scene_total_spheres(scene) > 0) {
-        decomp_free(&fl->d);
-        free(fl);
-        return log_msg(log, STATUS_ERROR, "fluid",
-                       "%s: spheres on more than one MPI rank are not supported yet (issue 13): run this scene "
-                       "on one rank",
-                       scene->path ? scene->path : "(scene)");
-    }
     grid_init(&fl->g, fl->d.n);
     fl->kp.omega_plus = fl->units.omega_plus;
     fl->kp.omega_minus = fl->units.omega_minus;
@@ -190,7 +182,15 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     for (int z = 0; z < fl->g.s[2]; z++) {
         for (int y = 0; y < fl->g.s[1]; y++) {
             for (int x = 0; x < fl->g.s[0]; x++) {
-                fl->flags[grid_index(&fl->g, x, y, z)] = grid_is_interior(&fl->g, x, y, z) ? CELL_FLUID : CELL_GHOST;
+                /* a ghost cell beyond faces to other ranks only is their fluid */
+                const int X[3] = {x, y, z};
+                int ghost = 0;
+                for (int a = 0; a < 3; a++) {
+                    if (X[a] < 1 || X[a] > fl->g.n[a]) {
+                        ghost = ghost || !decomp_exchanged(&fl->d, a, X[a] < 1 ? 0 : 1);
+                    }
+                }
+                fl->flags[grid_index(&fl->g, x, y, z)] = ghost ? CELL_GHOST : CELL_FLUID;
             }
         }
     }
@@ -204,7 +204,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     }
     st = walls_build(&fl->walls, &fl->g, scene, &fl->units, &fl->d, log);
     if (st == STATUS_OK) {
-        st = spheres_init(&fl->spheres, scene, &fl->units, &fl->g, fl->flags, log);
+        st = spheres_init(&fl->spheres, scene, &fl->units, &fl->g, &fl->d, log);
     }
     if (st == STATUS_OK) {
         const pops_t p = fluid_pops(fl);
@@ -359,12 +359,37 @@ static status_t watch_period_two(fluid_t *fl)
     return st;
 }
 
+/* On several ranks every rank takes rank 0's sphere kinematics: the master
+ * of each rank sets them from its own copy of the rigid component, and
+ * ranks that disagreed in a last bit (another CPU's libm) would disagree on
+ * which cells are solid. */
+static void share_kinematics(fluid_t *fl)
+{
+    if (!decomp_parallel(&fl->d)) {
+        return;
+    }
+    const int n = fl->spheres.n;
+    double *buf = fl->spheres.kin;
+    for (int i = 0; i < n; i++) {
+        memcpy(buf + 9 * i, fl->spheres.s[i].c, 3 * sizeof(double));
+        memcpy(buf + 9 * i + 3, fl->spheres.s[i].v, 3 * sizeof(double));
+        memcpy(buf + 9 * i + 6, fl->spheres.s[i].w, 3 * sizeof(double));
+    }
+    decomp_bcast(&fl->d, buf, 9 * (size_t)n * sizeof(double));
+    for (int i = 0; i < n; i++) {
+        memcpy(fl->spheres.s[i].c, buf + 9 * i, 3 * sizeof(double));
+        memcpy(fl->spheres.s[i].v, buf + 9 * i + 3, 3 * sizeof(double));
+        memcpy(fl->spheres.s[i].w, buf + 9 * i + 6, 3 * sizeof(double));
+    }
+}
+
 status_t fluid_step(fluid_t *fl)
 {
     const pops_t p = fluid_pops(fl);
     const int two = fl->streaming == STREAMING_TWO_ARRAY;
     if (fl->spheres.n > 0) {
-        spheres_advance_prescribed(&fl->spheres, &fl->g, fl->step);
+        share_kinematics(fl);
+        spheres_advance_prescribed(&fl->spheres, fl->step);
         status_t st = spheres_map(&fl->spheres, &fl->g, fl->flags, &p, &fl->log);
         if (st == STATUS_OK) {
             st = walls_fill(&fl->walls, &fl->g, &p, &fl->log);
@@ -846,7 +871,7 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
         cn[a] = c[a] / u->dx + 0.5;
         double d = cn[a] - p->c[a];
         if (fl->spheres.periodic[a]) {
-            d -= fl->g.n[a] * floor(d / fl->g.n[a] + 0.5);
+            d -= fl->d.N[a] * floor(d / fl->d.N[a] + 0.5);
         }
         moved += d * d;
     }
@@ -882,7 +907,7 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
         p->v[a] = v[a] * u->dt / u->dx;
         p->w[a] = w[a] * u->dt;
         if (fl->spheres.periodic[a]) {
-            p->c[a] = 0.5 + fmod(fmod(p->c[a] - 0.5, fl->g.n[a]) + fl->g.n[a], fl->g.n[a]);
+            p->c[a] = 0.5 + fmod(fmod(p->c[a] - 0.5, fl->d.N[a]) + fl->d.N[a], fl->d.N[a]);
         }
     }
     return STATUS_OK;

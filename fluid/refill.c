@@ -1,37 +1,41 @@
 /* refill.c — refilling uncovered cells (refill.h). */
 #include "refill.h"
 
+#include "spheres.h"
+
 #include "lattice.h"
 
 #include <math.h>
 
-/* Interior index of X + k c_q, wrapped on periodic axes; 0 when outside. */
-static int neighbour(const grid_t *g, const int periodic[3], const int X[3], int q, int k, size_t *out)
+/* The cell X + k c_q (the block's, or another rank's in the sphere halo);
+ * 0 beyond a wall. */
+static int neighbour(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, int k,
+                     size_t *out, uint8_t *flag)
 {
     int Y[3];
     for (int a = 0; a < 3; a++) {
         Y[a] = X[a] + k * lb_c[q][a];
-        if (Y[a] < 1 || Y[a] > g->n[a]) {
-            if (!periodic[a]) {
-                return 0;
-            }
-            Y[a] = (Y[a] - 1 + 2 * g->n[a]) % g->n[a] + 1;
-        }
     }
-    *out = grid_index(g, Y[0], Y[1], Y[2]);
-    return 1;
+    return spheres_cell(sp, g, flags, Y, out, flag);
 }
 
-static void moments(const pops_t *p, size_t i, double *rho, double u[3])
+static void moments(const spheres_t *sp, const pops_t *p, size_t i, double *rho, double u[3])
 {
-    double j[3];
-    *rho = pops_moments(p, i, j);
+    double r = 0.0, j[3] = {0.0, 0.0, 0.0};
+    for (int q = 0; q < LB_Q; q++) { /* the order of pops_moments */
+        const double v = spheres_post(sp, p, q, i);
+        r += v;
+        j[0] += lb_c[q][0] * v;
+        j[1] += lb_c[q][1] * v;
+        j[2] += lb_c[q][2] * v;
+    }
+    *rho = r;
     for (int a = 0; a < 3; a++) {
-        u[a] = j[a] / *rho;
+        u[a] = j[a] / r;
     }
 }
 
-void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int periodic[3], const pops_t *p,
+void refill_cell(refill_t kind, spheres_t *sp, const grid_t *g, const uint8_t *flags, const pops_t *p,
                  const int X[3], const double normal[3], const double us[3], double mom[3])
 {
     const size_t self = grid_index(g, X[0], X[1], X[2]);
@@ -40,11 +44,12 @@ void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int
     double best_cos = -2.0;
     for (int q = 1; q < LB_Q; q++) {
         size_t i;
-        if (!neighbour(g, periodic, X, q, 1, &i) || flags[i] != 0) {
+        uint8_t fl;
+        if (!neighbour(sp, g, flags, X, q, 1, &i, &fl) || fl != 0) {
             continue;
         }
         double r, u[3];
-        moments(p, i, &r, u);
+        moments(sp, p, i, &r, u);
         rho += r;
         nrho++;
         const double len = sqrt((double)(lb_c[q][0] * lb_c[q][0] + lb_c[q][1] * lb_c[q][1] + lb_c[q][2] * lb_c[q][2]));
@@ -58,17 +63,18 @@ void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int
     double neq[LB_Q] = {0.0};
     if (kind == REFILL_EXTRAPOLATION && best > 0) {
         size_t i1, i2;
-        neighbour(g, periodic, X, best, 1, &i1);
-        const int two = neighbour(g, periodic, X, best, 2, &i2) && flags[i2] == 0;
+        uint8_t f1, f2;
+        neighbour(sp, g, flags, X, best, 1, &i1, &f1);
+        const int two = neighbour(sp, g, flags, X, best, 2, &i2, &f2) && f2 == 0;
         double r1, u1[3], r2 = 0.0, u2[3] = {0.0, 0.0, 0.0};
-        moments(p, i1, &r1, u1);
+        moments(sp, p, i1, &r1, u1);
         if (two) {
-            moments(p, i2, &r2, u2);
+            moments(sp, p, i2, &r2, u2);
         }
         for (int q = 0; q < LB_Q; q++) {
-            const double n1 = pops_post(p, q, i1) - lb_feq(q, r1, u1[0], u1[1], u1[2]);
+            const double n1 = spheres_post(sp, p, q, i1) - lb_feq(q, r1, u1[0], u1[1], u1[2]);
             if (two) {
-                const double n2 = pops_post(p, q, i2) - lb_feq(q, r2, u2[0], u2[1], u2[2]);
+                const double n2 = spheres_post(sp, p, q, i2) - lb_feq(q, r2, u2[0], u2[1], u2[2]);
                 neq[q] = 2.0 * n1 - n2;
             } else {
                 neq[q] = n1;

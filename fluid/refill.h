@@ -17,12 +17,16 @@
 #include "grid.h"
 #include "layout.h"
 
+struct spheres_s;
+
 #include <stdint.h>
 
-/* cell: allocated coordinates X; normal: unit outward normal of the sphere at
- * the cell; us: surface velocity (lattice). Writes the 19 populations of the
- * cell (its post-collision slots in p) and returns their momentum in mom[3]. */
-void refill_cell(refill_t kind, const grid_t *g, const uint8_t *flags, const int periodic[3], const pops_t *p,
+/* cell: allocated coordinates X of the block; normal: unit outward normal of
+ * the sphere at the cell; us: surface velocity (lattice). Its neighbours may
+ * be cells of other ranks (spheres_cell: the sphere halo). Writes the 19
+ * populations of the cell (its post-collision slots in p) and returns their
+ * momentum in mom[3]. */
+void refill_cell(refill_t kind, struct spheres_s *sp, const grid_t *g, const uint8_t *flags, const pops_t *p,
                  const int X[3], const double normal[3], const double us[3], double mom[3]);
 
 #endif

@@ -20,7 +20,6 @@
 /* links ahead at which spheres_fill prefetches a cell's populations */
 #define FILL_AHEAD 12
 
-enum { FLAG_SOLID = 1, FLAG_GHOST = 2, FLAG_MARK = 4, FLAG_FRESH = 16 };
 
 static int grow(void **p, size_t *cap, size_t need, size_t elem)
 {
@@ -40,30 +39,76 @@ static int grow(void **p, size_t *cap, size_t need, size_t elem)
     return 1;
 }
 
-/* Minimum-image difference a - b on periodic axes of extent n. */
-static void min_image(const grid_t *g, const int periodic[3], const double a[3], const double b[3], double d[3])
+/* Minimum-image difference a - b (global lattice coordinates) on the
+ * periodic axes of the whole grid. */
+static void min_image(const spheres_t *sp, const double a[3], const double b[3], double d[3])
 {
     for (int k = 0; k < 3; k++) {
         d[k] = a[k] - b[k];
-        if (periodic[k]) {
-            d[k] -= g->n[k] * floor(d[k] / g->n[k] + 0.5);
+        if (sp->periodic[k]) {
+            d[k] -= sp->N[k] * floor(d[k] / sp->N[k] + 0.5);
         }
     }
 }
 
-/* Wraps integer coordinates onto the interior; 0 when outside a wall. */
-static int wrap_cell(const grid_t *g, const int periodic[3], const int X[3], int Y[3])
+int spheres_locate(const int lo[3], const int n[3], const int open[6], const int periodic[3], const int N[3],
+                   const int X[3], int Y[3])
 {
+    int owned = 1;
     for (int a = 0; a < 3; a++) {
-        Y[a] = X[a];
-        if (Y[a] < 1 || Y[a] > g->n[a]) {
-            if (!periodic[a]) {
+        int g = X[a] - 1; /* global cell, 0-based */
+        if (periodic[a]) {
+            g = (g % N[a] + N[a]) % N[a];
+        }
+        int y = g - lo[a] + 1;
+        if (periodic[a] && (open[2 * a] || open[2 * a + 1])) {
+            /* a cut periodic axis: the image nearest to the block */
+            if (y < -1) {
+                y += N[a];
+            } else if (y > n[a] + 2) {
+                y -= N[a];
+            }
+        }
+        if (y < 1 || y > n[a]) {
+            owned = 0;
+            if (!open[2 * a + (y < 1 ? 0 : 1)] || y < -1 || y > n[a] + 2) {
                 return 0;
             }
-            Y[a] = ((Y[a] - 1) % g->n[a] + g->n[a]) % g->n[a] + 1;
         }
+        Y[a] = y;
     }
-    return 1;
+    return owned ? 1 : 2;
+}
+
+/* Global unwrapped allocated coordinates of local Y. */
+static void global_of(const spheres_t *sp, const int Y[3], int X[3])
+{
+    for (int a = 0; a < 3; a++) {
+        X[a] = Y[a] + sp->lo[a];
+    }
+}
+
+int spheres_cell(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int Y[3], size_t *ref, uint8_t *flag)
+{
+    int X[3], Z[3];
+    global_of(sp, Y, X);
+    const int where = spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Z);
+    if (where == 1) {
+        *ref = grid_index(g, Z[0], Z[1], Z[2]);
+        *flag = flags[*ref];
+        return 1;
+    }
+    if (where == 2) {
+        const long k = sphere_halo_find(&sp->halo, Z);
+        if (k >= 0) {
+            *ref = SPHERE_EXT + (size_t)k;
+            *flag = sp->halo.flag[k];
+            return 1;
+        }
+#pragma omp atomic
+        sp->halo.misses++;
+    }
+    return 0;
 }
 
 static void cross(const double a[3], const double b[3], double c[3])
@@ -106,20 +151,28 @@ static void rotate(const double w[3], double t, const double v[3], double out[3]
     }
 }
 
-static void wrap_centre(const grid_t *g, const int periodic[3], double c[3])
+void spheres_wrap_centre(const spheres_t *sp, double c[3])
 {
     for (int a = 0; a < 3; a++) {
-        if (periodic[a]) {
-            c[a] = 0.5 + fmod(fmod(c[a] - 0.5, g->n[a]) + g->n[a], g->n[a]);
+        if (sp->periodic[a]) {
+            c[a] = 0.5 + fmod(fmod(c[a] - 0.5, sp->N[a]) + sp->N[a], sp->N[a]);
         }
     }
 }
 
-status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const grid_t *g, uint8_t *flags,
+status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const grid_t *g, decomp_t *dc,
                       const log_t *log)
 {
-    (void)flags;
     memset(sp, 0, sizeof *sp);
+    sp->dc = dc;
+    sp->grid = *g;
+    for (int a = 0; a < 3; a++) {
+        sp->N[a] = dc->N[a];
+        sp->lo[a] = dc->lo[a];
+        sp->nb[a] = dc->n[a];
+        sp->open[2 * a] = dc->nbr[a][0] >= 0;
+        sp->open[2 * a + 1] = dc->nbr[a][1] >= 0;
+    }
     sp->n = scene_total_spheres(s);
     sp->scheme = s->fluid.boundary_scheme;
     sp->refill = s->fluid.refill;
@@ -137,7 +190,9 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     }
     sp->s = calloc((size_t)sp->n, sizeof *sp->s);
     sp->lists = calloc((size_t)sp->n, sizeof *sp->lists);
-    if (sp->s == NULL || sp->lists == NULL) {
+    sp->accbuf = calloc((size_t)sp->n * 8, sizeof *sp->accbuf);
+    sp->kin = calloc((size_t)sp->n * 9, sizeof *sp->kin);
+    if (sp->s == NULL || sp->lists == NULL || sp->accbuf == NULL || sp->kin == NULL) {
         return log_msg(log, STATUS_ERROR, "fluid", "out of memory for %d spheres", sp->n);
     }
     int k = 0;
@@ -184,7 +239,7 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
                     p->v[a] = p->vbody[a] + wr[a];
                 }
             }
-            wrap_centre(g, sp->periodic, p->c);
+            spheres_wrap_centre(sp, p->c);
         }
     }
     return STATUS_OK;
@@ -200,10 +255,13 @@ void spheres_free(spheres_t *sp)
     free(sp->solid);
     free(sp->fresh);
     free(sp->fresh_sphere);
+    sphere_halo_free(&sp->halo);
+    free(sp->accbuf);
+    free(sp->kin);
     memset(sp, 0, sizeof *sp);
 }
 
-void spheres_advance_prescribed(spheres_t *sp, const grid_t *g, long step)
+void spheres_advance_prescribed(spheres_t *sp, long step)
 {
     for (int i = 0; i < sp->n; i++) {
         sphere_t *p = &sp->s[i];
@@ -218,7 +276,7 @@ void spheres_advance_prescribed(spheres_t *sp, const grid_t *g, long step)
             p->c[a] = p->cb0[a] + p->vbody[a] * (double)step + rel[a];
             p->v[a] = p->vbody[a] + wrel[a];
         }
-        wrap_centre(g, sp->periodic, p->c);
+        spheres_wrap_centre(sp, p->c);
     }
 }
 
@@ -243,8 +301,11 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
         for (X[1] = lo[1]; X[1] <= hi[1]; X[1]++) {
             for (X[0] = lo[0]; X[0] <= hi[0]; X[0]++) {
                 const double dx = X[0] - p->c[0], dy = X[1] - p->c[1], dz = X[2] - p->c[2];
-                if (dx * dx + dy * dy + dz * dz > r2 || !wrap_cell(g, sp->periodic, X, Y)) {
-                    continue;
+                if (dx * dx + dy * dy + dz * dz > r2 ||
+                    !spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y) ||
+                    !(Y[0] >= 0 && Y[0] <= g->n[0] + 1 && Y[1] >= 0 && Y[1] <= g->n[1] + 1 && Y[2] >= 0 &&
+                      Y[2] <= g->n[2] + 1)) {
+                    continue; /* beyond a wall, or a halo cell outside the grid's ghost layer */
                 }
                 const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
                 if (!grow((void **)marks, cap, *nm + 1, sizeof **marks)) {
@@ -265,17 +326,17 @@ static void cell_coords(const grid_t *g, size_t i, int X[3])
     X[2] = (int)(i / ((size_t)g->s[0] * (size_t)g->s[1]));
 }
 
-/* Books momentum dp (lattice) taken by sphere k at cell X. */
-static void book(spheres_t *sp, const grid_t *g, int k, const int X[3], const double dp[3])
+/* Books momentum dp (lattice) taken by sphere k at (local) cell X. */
+static void book(spheres_t *sp, int k, const int X[3], const double dp[3])
 {
     sphere_t *p = &sp->s[k];
-    const double x[3] = {X[0], X[1], X[2]};
+    const double x[3] = {X[0] + sp->lo[0], X[1] + sp->lo[1], X[2] + sp->lo[2]};
     double d[3], t[3];
-    min_image(g, sp->periodic, x, p->c, d);
+    min_image(sp, x, p->c, d);
     cross(d, dp, t);
     for (int a = 0; a < 3; a++) {
-        p->f[a] += dp[a];
-        p->t[a] += t[a];
+        xsum_add(&p->acc[a], dp[a]);
+        xsum_add(&p->acc[3 + a], t[a]);
     }
 }
 
@@ -286,29 +347,29 @@ static void book(spheres_t *sp, const grid_t *g, int k, const int X[3], const do
  * covered cell, -rho v on every uncovered one). With plain momentum exchange
  * the full momentum is booked (Aidun, Lu & Ding 1998), which conserves the
  * momentum of fluid plus spheres exactly. */
-static void galilean_shift(const spheres_t *sp, const grid_t *g, int k, const int X[3], double rho, double dp[3])
+static void galilean_shift(const spheres_t *sp, int k, const int X[3], double rho, double dp[3])
 {
     if (sp->force != FORCE_GALILEAN) {
         return;
     }
     const sphere_t *p = &sp->s[k];
-    const double x[3] = {X[0], X[1], X[2]};
+    const double x[3] = {X[0] + sp->lo[0], X[1] + sp->lo[1], X[2] + sp->lo[2]};
     double d[3], wr[3];
-    min_image(g, sp->periodic, x, p->c, d);
+    min_image(sp, x, p->c, d);
     cross(p->w, d, wr);
     for (int a = 0; a < 3; a++) {
         dp[a] -= rho * (p->v[a] + wr[a]);
     }
 }
 
-/* The sphere whose surface is nearest to point x. */
-static int nearest_sphere(const spheres_t *sp, const grid_t *g, const double x[3], double d_out[3])
+/* The sphere whose surface is nearest to point x (global coordinates). */
+static int nearest_sphere(const spheres_t *sp, const double x[3], double d_out[3])
 {
     int best = 0;
     double bd = INFINITY;
     for (int k = 0; k < sp->n; k++) {
         double d[3];
-        min_image(g, sp->periodic, x, sp->s[k].c, d);
+        min_image(sp, x, sp->s[k].c, d);
         const double dist = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - sp->s[k].r;
         if (dist < bd) {
             bd = dist;
@@ -333,6 +394,9 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         memset(sp->s[k].f, 0, sizeof sp->s[k].f);
         memset(sp->s[k].t, 0, sizeof sp->s[k].t);
         sp->s[k].zt = sp->s[k].zr = 0.0;
+        for (int a = 0; a < 8; a++) {
+            xsum_zero(&sp->s[k].acc[a]);
+        }
     }
     /* no sphere moved: flags, solid cells and links stay. (Solid cells are
      * never reset: the kernel runs over them, but every population a fluid
@@ -350,7 +414,18 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
             }
         }
         sp->nfresh = 0;
-        return STATUS_OK;
+        /* the cells of other ranks the links read, this step's values */
+        return sphere_halo_exchange(sp, f, log);
+    }
+    /* on several ranks: the cells of other ranks near the spheres (with the
+     * centres of the last map in cmap, for their fresh flags), and their
+     * values for the refill */
+    status_t hst = decomp_agree(sp->dc, sphere_halo_plan(sp, log));
+    if (hst == STATUS_OK) {
+        hst = decomp_agree(sp->dc, sphere_halo_exchange(sp, f, log));
+    }
+    if (hst != STATUS_OK) {
+        return hst;
     }
     for (int k = 0; k < sp->n; k++) {
         memcpy(sp->s[k].cmap, sp->s[k].c, sizeof sp->s[k].c);
@@ -370,6 +445,12 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     for (size_t j = 0; j < sp->nsolid; j++) {
         const size_t i = sp->solid[j];
         if (flags[i] & FLAG_MARK) {
+            continue;
+        }
+        int Xu[3];
+        cell_coords(g, i, Xu);
+        if (!grid_is_interior(g, Xu[0], Xu[1], Xu[2])) {
+            flags[i] = 0; /* a ghost cell of another rank's fluid: its owner refills it */
             continue;
         }
         if (!grow((void **)&sp->fresh, &sp->cap_fresh, sp->nfresh + 1, sizeof *sp->fresh)) {
@@ -395,7 +476,9 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
                            sp->nsolid + sp->nfresh + 1);
         }
         sp->solid[sp->nsolid++] = i;
-        if (!was_solid && !sp->first) {
+        int Xc[3];
+        cell_coords(g, i, Xc);
+        if (!was_solid && !sp->first && grid_is_interior(g, Xc[0], Xc[1], Xc[2])) {
             double dp[3] = {0.0, 0.0, 0.0}, rho = 0.0;
             for (int q = 0; q < LB_Q; q++) {
                 const double v = pops_post(f, q, i);
@@ -406,8 +489,8 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
             }
             int X[3];
             cell_coords(g, i, X);
-            galilean_shift(sp, g, marks[j].sphere, X, rho, dp);
-            book(sp, g, marks[j].sphere, X, dp);
+            galilean_shift(sp, marks[j].sphere, X, rho, dp);
+            book(sp, marks[j].sphere, X, dp);
             sp->covered_total++;
         }
     }
@@ -417,9 +500,9 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         const size_t i = sp->fresh[j];
         int X[3];
         cell_coords(g, i, X);
-        const double x[3] = {X[0], X[1], X[2]};
+        const double x[3] = {X[0] + sp->lo[0], X[1] + sp->lo[1], X[2] + sp->lo[2]};
         double d[3] = {0.0, 0.0, 0.0};
-        const int k = nearest_sphere(sp, g, x, d);
+        const int k = nearest_sphere(sp, x, d);
         const sphere_t *p = &sp->s[k];
         const double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         double nrm[3], rs[3], wr[3], us[3], mom[3];
@@ -431,51 +514,63 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         for (int a = 0; a < 3; a++) {
             us[a] = p->v[a] + wr[a];
         }
-        refill_cell(sp->refill, g, flags, sp->periodic, f, X, nrm, us, mom);
+        refill_cell(sp->refill, sp, g, flags, f, X, nrm, us, mom);
         double rho = 0.0;
         for (int q = 0; q < LB_Q; q++) {
             rho += pops_post(f, q, i);
         }
-        galilean_shift(sp, g, k, X, rho, mom);
+        galilean_shift(sp, k, X, rho, mom);
         for (int a = 0; a < 3; a++) {
             mom[a] = -mom[a];
         }
-        book(sp, g, k, X, mom);
+        book(sp, k, X, mom);
         sp->uncovered_total++;
     }
     sp->first = 0;
     /* the uncovered cells keep FLAG_FRESH through the links (fluid cells for
      * them, marked as fresh on their links: sphere_links) */
-    const status_t st = build_links(sp, g, flags, log);
+    status_t st = build_links(sp, g, flags, log);
     for (size_t j = 0; j < sp->nfresh; j++) {
         flags[sp->fresh[j]] = 0;
+    }
+    if (sp->halo.misses > 0) {
+        st = log_msg(log, STATUS_ERROR, "fluid",
+                     "sphere halo: %ld cells of other ranks near the spheres were read but not held (a bug: please "
+                     "report it with the scene and run.ranks)",
+                     sp->halo.misses);
+        sp->halo.misses = 0;
+    }
+    /* the links read the refilled cells of other ranks too */
+    st = decomp_agree(sp->dc, st);
+    if (st == STATUS_OK) {
+        st = decomp_agree(sp->dc, sphere_halo_exchange(sp, f, log));
     }
     return st;
 }
 
-static int fluid_at(const spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, int k,
+static int fluid_at(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, int k,
                     size_t *out)
 {
-    int Z[3], Y[3];
+    int Z[3];
     for (int a = 0; a < 3; a++) {
         Z[a] = X[a] - k * lb_c[q][a];
     }
-    if (!wrap_cell(g, sp->periodic, Z, Y)) {
+    uint8_t flag;
+    if (!spheres_cell(sp, g, flags, Z, out, &flag)) {
         return 0;
     }
-    *out = grid_index(g, Y[0], Y[1], Y[2]);
-    return (flags[*out] & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
+    return (flag & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
 }
 
 /* Spheres whose rays from cells near sphere k can hit first: a link of k
  * starts within r_k + sqrt(2) of c_k and one of m within r_m + sqrt(2) of
  * c_m (|c_q| <= sqrt 2), so |c_k - c_m| < r_k + r_m + 3 takes in all. */
-static int candidates(const spheres_t *sp, const grid_t *g, int k, int *out)
+static int candidates(const spheres_t *sp, int k, int *out)
 {
     int n = 0;
     for (int m = 0; m < sp->n; m++) {
         double d[3];
-        min_image(g, sp->periodic, sp->s[k].c, sp->s[m].c, d);
+        min_image(sp, sp->s[k].c, sp->s[m].c, d);
         const double reach = sp->s[k].r + sp->s[m].r + 3.0;
         if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach) {
             out[n++] = m;
@@ -488,17 +583,17 @@ static int candidates(const spheres_t *sp, const grid_t *g, int k, int *out)
  * direction q with x_f + c_q solid whose ray hits k first (Eq. 5, nearest
  * intersection over the candidates). A link thus belongs to exactly one
  * sphere and the spheres build their lists independently. */
-static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *flags, int k, int *cand,
+static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, int k, int *cand,
                         link_list_t *list)
 {
     const sphere_t *p = &sp->s[k];
-    int nc = candidates(sp, g, k, cand);
+    int nc = candidates(sp, k, cand);
     /* the other candidates, and their centres relative to c_k (minimum image) */
     double rel[nc > 0 ? nc : 1][3];
     int m_n = 0;
     for (int c = 0; c < nc; c++) {
         if (cand[c] != k) {
-            min_image(g, sp->periodic, p->c, sp->s[cand[c]].c, rel[m_n]);
+            min_image(sp, p->c, sp->s[cand[c]].c, rel[m_n]);
             cand[m_n++] = cand[c];
         }
     }
@@ -527,8 +622,8 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
                 if (dd > reach2 || dd <= r2) {
                     continue; /* no ray of length <= sqrt 2 from here reaches k; or inside k (solid) */
                 }
-                if (!wrap_cell(g, sp->periodic, X, Y)) {
-                    continue;
+                if (spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y) != 1) {
+                    continue; /* beyond a wall, or another rank's cell: its links are built there */
                 }
                 const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
                 if ((flags[i] & ~FLAG_FRESH) != 0) {
@@ -545,9 +640,11 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
                         nb = (size_t)((ptrdiff_t)i + off[q]);
                     } else {
                         for (int a = 0; a < 3; a++) {
-                            B[a] = Y[a] + lb_c[q][a];
+                            B[a] = Y[a] + lb_c[q][a] + sp->lo[a];
                         }
-                        if (!wrap_cell(g, sp->periodic, B, W)) {
+                        /* a neighbour: in the block or its ghost layer, whose
+                         * flags mark_sphere set as the owner's */
+                        if (!spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W)) {
                             continue;
                         }
                         nb = grid_index(g, W[0], W[1], W[2]);
@@ -575,8 +672,9 @@ static int sphere_links(const spheres_t *sp, const grid_t *g, const uint8_t *fla
                     if (delta == 0.0) {
                         /* no ray hits: x_b sits on a surface the ray only touches at t = 1 */
                         double d[3];
-                        const double xb[3] = {Y[0] + lb_c[q][0], Y[1] + lb_c[q][1], Y[2] + lb_c[q][2]};
-                        if (nearest_sphere(sp, g, xb, d) != k) {
+                        const double xb[3] = {Y[0] + sp->lo[0] + lb_c[q][0], Y[1] + sp->lo[1] + lb_c[q][1],
+                                              Y[2] + sp->lo[2] + lb_c[q][2]};
+                        if (nearest_sphere(sp, xb, d) != k) {
                             continue;
                         }
                         delta = 1.0;
@@ -667,6 +765,23 @@ void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *f, const pops_t 
         POPS_SPECIALISE(f, FILL);
 #undef FILL
     }
+    /* every rank's part of each load (the links of its cells, the cells it
+     * covered and uncovered), summed exactly: all ranks get the same load */
+    xsum_t *acc = sp->accbuf;
+    for (int k = 0; k < sp->n; k++) {
+        memcpy(acc + (size_t)k * 8, sp->s[k].acc, sizeof sp->s[k].acc);
+    }
+    decomp_sum(sp->dc, acc, 8 * sp->n);
+    for (int k = 0; k < sp->n; k++) {
+        const xsum_t *a = acc + (size_t)k * 8;
+        sphere_t *p = &sp->s[k];
+        for (int c = 0; c < 3; c++) {
+            p->f[c] = xsum_value(&a[c]);
+            p->t[c] = xsum_value(&a[3 + c]);
+        }
+        p->zt = xsum_value(&a[6]);
+        p->zr = xsum_value(&a[7]);
+    }
 }
 
 static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0, const pops_t *prev,
@@ -677,11 +792,20 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
     const pops_t *f = &fl;
     size_t cell = (size_t)-1;
     double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
+    /* the load of a cell's links, summed in q order, then added exactly to
+     * the sphere's (common/exact_sum.h): the same bits on any ranks */
+    double cl[8] = {0.0};
+    sphere_t *p = list->n > 0 ? &sp->s[list->l[0].sphere] : NULL;
     for (size_t n = 0; n < list->n; n++) {
         const sphere_link_t *l = &list->l[n];
-        sphere_t *p = &sp->s[l->sphere];
         const int q = l->q, o = lb_opposite(q);
         if (l->xf != cell) { /* the links of a cell are consecutive (sphere_links) */
+            if (n > 0) {
+                for (int a = 0; a < 8; a++) {
+                    xsum_add(&p->acc[a], cl[a]);
+                    cl[a] = 0.0;
+                }
+            }
             cell = l->xf;
             rho = pops_moments(f, cell, j);
         }
@@ -708,13 +832,13 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         const double f_old = pops_post(f, q, l->xf);
         double f_new = l->a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
         if (l->a[1] != 0.0 || l->b[0] != 0.0 || l->b[1] != 0.0) {
-            f_new += l->a[1] * pops_post(f, q, l->xff) + l->b[0] * pops_post(f, o, l->xf);
+            f_new += l->a[1] * spheres_post(sp, f, q, l->xff) + l->b[0] * pops_post(f, o, l->xf);
         }
         if (l->a[2] != 0.0) {
-            f_new += l->a[2] * pops_post(f, q, l->xfff);
+            f_new += l->a[2] * spheres_post(sp, f, q, l->xfff);
         }
         if (l->b[1] != 0.0) {
-            f_new += l->b[1] * pops_post(f, o, l->xff);
+            f_new += l->b[1] * spheres_post(sp, f, o, l->xff);
         }
         if (l->corr != 0.0 && !l->fresh) {
             /* antisymmetric non-equilibrium of the pre-collision populations at x_f:
@@ -750,8 +874,8 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         double t[3];
         cross(l->rw, df, t);
         for (int a = 0; a < 3; a++) {
-            p->f[a] += df[a];
-            p->t[a] += t[a];
+            cl[a] += df[a];
+            cl[3 + a] += t[a];
         }
         /* the moving-wall term makes df react at once to the wall velocity:
          * d(df)/d(u_w) = -A 6 w rho c c^T; its isotropic parts for v and for
@@ -760,7 +884,12 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         double rc[3];
         cross(l->rw, cq, rc);
         const double k = A * 6.0 * lb_w[q] * rho / 3.0;
-        p->zt += k * (cq[0] * cq[0] + cq[1] * cq[1] + cq[2] * cq[2]);
-        p->zr += k * (rc[0] * rc[0] + rc[1] * rc[1] + rc[2] * rc[2]);
+        cl[6] += k * (cq[0] * cq[0] + cq[1] * cq[1] + cq[2] * cq[2]);
+        cl[7] += k * (rc[0] * rc[0] + rc[1] * rc[1] + rc[2] * rc[2]);
+    }
+    if (p != NULL) {
+        for (int a = 0; a < 8; a++) {
+            xsum_add(&p->acc[a], cl[a]);
+        }
     }
 }

@@ -19,7 +19,9 @@
 #ifndef FLUID_SPHERES_H
 #define FLUID_SPHERES_H
 
+#include "../common/exact_sum.h"
 #include "../common/scene.h"
+#include "decomp.h"
 #include "grid.h"
 #include "layout.h"
 #include "units.h"
@@ -35,6 +37,7 @@ typedef struct {
     double cb0[3], rel0[3];  /* prescribed: body centroid at t0, centre minus centroid at t0 */
     double vbody[3];         /* prescribed: velocity of the body centroid */
     double f[3], t[3];       /* load of the last step: force, torque about c */
+    xsum_t acc[8];           /* the load while it is summed: f, t, zt, zr (exact: any threads and ranks) */
     double fprev[3], tprev[3];
     double zt, zr;           /* drag coefficients of the last step: -dF/dv and -dT/dw (isotropic parts) */
     double density_ratio;    /* particle / fluid density */
@@ -48,6 +51,30 @@ typedef struct {
     double amp_prev, amp_grow0;   /* last amplitude; amplitude where the current growing run began */
     int nhist, nalt, ngrow, warned;
 } sphere_t;
+
+/* Cell flags of the sphere stage (CELL_FLUID 0, CELL_SOLID 1, CELL_GHOST 2
+ * of fluid_internal.h, and two bits of its own). */
+enum { FLAG_SOLID = 1, FLAG_GHOST = 2, FLAG_MARK = 4, FLAG_FRESH = 16 };
+
+/* A cell the sphere stage reads: an index of the block's grid, or on
+ * several ranks SPHERE_EXT + k, cell k of the sphere halo (sphere_halo.c):
+ * a cell of another rank within two cells of the block, near a sphere. */
+#define SPHERE_EXT ((size_t)1 << 62)
+
+typedef struct {
+    size_t n, cap;     /* cells held */
+    double *val;       /* n x LB_Q post-collision populations */
+    uint8_t *flag;     /* FLAG_SOLID / FLAG_FRESH (spheres.c) of each, from the geometry */
+    int (*Y)[3];       /* local allocated coordinates (-1 .. n + 2) */
+    uint64_t *hkey;    /* hash of Y -> k (open addressing) */
+    int64_t *hval;
+    size_t hcap;
+    size_t nrecv[27], recv0[27]; /* per direction of the owner (dx+1)*9 + (dy+1)*3 + dz+1 */
+    size_t *send[27], nsend[27], capsend[27]; /* grid indices of this block's cells each neighbour holds */
+    double *sbuf;
+    size_t scap;
+    long misses;       /* cells the stage looked for and the halo did not hold (must stay 0) */
+} sphere_halo_t;
 
 /* Link from fluid cell x_f along c_q into a solid cell: it writes
  * in_slot(qbar, x_f) (layout.h), the population x_f receives from the solid. */
@@ -71,7 +98,7 @@ typedef struct {
     size_t n, cap;
 } link_list_t;
 
-typedef struct {
+typedef struct spheres_s {
     int n;
     sphere_t *s;
     /* per-step lists */
@@ -83,7 +110,14 @@ typedef struct {
     size_t nfresh, cap_fresh;
     int *fresh_sphere;
     long covered_total, uncovered_total;
-    int periodic[3];
+    int periodic[3];      /* periodic axes of the domain (period N) */
+    int N[3], lo[3], nb[3]; /* the whole grid, this block's first cell and cells */
+    grid_t grid;          /* this block's grid */
+    int open[6];          /* block faces (2 axis + side) towards another rank (decomp.h) */
+    decomp_t *dc;         /* the block (not owned) */
+    sphere_halo_t halo;
+    xsum_t *accbuf;       /* the loads of all spheres for their sum over ranks */
+    double *kin;          /* 9 per sphere: the kinematics rank 0 sends (fluid.c) */
     boundary_scheme_t scheme;
     refill_t refill;
     force_method_t force;
@@ -93,7 +127,7 @@ typedef struct {
     double body_force[3]; /* lattice: the equilibrium velocity is (j~ - F/2)/rho */
 } spheres_t;
 
-status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const grid_t *g, uint8_t *flags,
+status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const grid_t *g, decomp_t *dc,
                       const log_t *log);
 void spheres_free(spheres_t *sp);
 
@@ -106,6 +140,31 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
  * ones (spheres.c). */
 void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *p, const pops_t *prev);
 /* Moves prescribed and fixed spheres by one step (dt = 1). */
-void spheres_advance_prescribed(spheres_t *sp, const grid_t *g, long step);
+void spheres_advance_prescribed(spheres_t *sp, long step);
+/* Wraps a centre (global lattice coordinates) onto the periodic axes. */
+void spheres_wrap_centre(const spheres_t *sp, double c[3]);
+
+/* Where the global allocated cell X (unwrapped) is for the block lo, n with
+ * open faces `open`: 1 a cell of the block (Y its allocated coordinates),
+ * 2 a cell of another rank within two cells of the block, 0 neither (beyond
+ * a wall, or farther). */
+int spheres_locate(const int lo[3], const int n[3], const int open[6], const int periodic[3], const int N[3],
+                   const int X[3], int Y[3]);
+/* The cell at local allocated coordinates Y as the stage reads it: 1 and
+ * ref, flag (grid flags, or the halo's) when available, else 0. */
+int spheres_cell(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int Y[3], size_t *ref, uint8_t *flag);
+/* Post-collision population q of a cell reference. */
+static inline double spheres_post(const spheres_t *sp, const pops_t *p, int q, size_t ref)
+{
+    return ref >= SPHERE_EXT ? sp->halo.val[(ref - SPHERE_EXT) * LB_Q + (size_t)q] : pops_post(p, q, ref);
+}
+
+/* sphere_halo.c: the halo's cells for the current centres (and their flags,
+ * fresh from the centres at the last map), and the exchange of their
+ * values. Collective: every rank calls them alike. */
+status_t sphere_halo_plan(spheres_t *sp, const log_t *log);
+status_t sphere_halo_exchange(spheres_t *sp, const pops_t *p, const log_t *log);
+long sphere_halo_find(const sphere_halo_t *h, const int Y[3]);
+void sphere_halo_free(sphere_halo_t *h);
 
 #endif
