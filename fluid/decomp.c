@@ -4,6 +4,7 @@
 #include "lattice.h"
 
 #include <mpi.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -245,6 +246,7 @@ status_t decomp_exchange_axis(decomp_t *d, const grid_t *g, const pops_t *p, int
     if (d->nbr[a][0] < 0 && d->nbr[a][1] < 0) {
         return STATUS_OK;
     }
+    const double t0 = omp_get_wtime();
     const int push = p->state == LAYOUT_PUSHED, n = g->n[a];
     const int b = (a + 1) % 3, c = (a + 2) % 3;
     const size_t es = p->h != NULL ? sizeof(float) : sizeof(double);
@@ -288,6 +290,7 @@ status_t decomp_exchange_axis(decomp_t *d, const grid_t *g, const pops_t *p, int
         const int layer = push ? (side == 0 ? 1 : n) : (side == 0 ? 0 : n + 1);
         layer_copy(g, p, a, layer, lo, hi, qs, nq, d->buf + (size_t)(2 + side) * bytes, 0);
     }
+    d->halo_seconds += omp_get_wtime() - t0;
     return STATUS_OK;
 }
 

@@ -45,6 +45,7 @@ typedef struct {
     unsigned char *buf;    /* send and receive buffers of one axis */
     size_t cap;
     double halo_bytes;     /* bytes this rank sends per step */
+    double halo_seconds;   /* wall time in the exchanges so far (packing, waiting, unpacking) */
 } decomp_t;
 
 /* The block of this rank for a grid of N cells; errors name the scene file

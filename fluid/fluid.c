@@ -458,6 +458,7 @@ void fluid_decomposition(const fluid_t *fl, fluid_decomposition_t *out)
         out->n[a] = fl->d.n[a];
     }
     out->halo_bytes = fl->d.halo_bytes;
+    out->halo_seconds = fl->d.halo_seconds;
 }
 
 size_t fluid_memory_bytes(const fluid_t *fl)

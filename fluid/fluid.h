@@ -34,7 +34,8 @@ void fluid_block(const fluid_t *fl, int lo[3], int n[3], const void **comm);
 typedef struct {
     int ranks, rank, dims[3]; /* ranks along x, y, z */
     int lo[3], n[3];          /* this rank's block */
-    double halo_bytes;        /* sent by this rank per step */
+    double halo_bytes;        /* sent by this rank per step (the lattice halo; the sphere halo comes on top) */
+    double halo_seconds;      /* wall time in exchanges so far, this rank */
 } fluid_decomposition_t;
 void fluid_decomposition(const fluid_t *fl, fluid_decomposition_t *out);
 size_t fluid_memory_bytes(const fluid_t *fl);

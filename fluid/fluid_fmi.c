@@ -276,6 +276,18 @@ static void fluid_fmi_free(void *comp)
         return;
     }
     h5fields_close(m->fields); /* errors were reported at each snapshot */
+    if (m->fl != NULL) {
+        fluid_decomposition_t d;
+        fluid_decomposition(m->fl, &d);
+        const long steps = fluid_step_count(m->fl);
+        if (d.ranks > 1 && d.rank == 0 && steps > 0) {
+            log_msg(&m->log, STATUS_OK, "fluid",
+                    "%d MPI ranks as [%d, %d, %d]; rank 0: block %d x %d x %d, halo %.4g MB per step, exchanges "
+                    "%.4g s in %ld steps (%.4g ms per step)",
+                    d.ranks, d.dims[0], d.dims[1], d.dims[2], d.n[0], d.n[1], d.n[2], d.halo_bytes / 1e6,
+                    d.halo_seconds, steps, 1e3 * d.halo_seconds / (double)steps);
+        }
+    }
     fluid_free(m->fl);
     free(m->kin);
     free(m->is_free);

@@ -20,6 +20,7 @@
 
 #include <math.h>
 #include <mpi.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -395,6 +396,7 @@ status_t sphere_halo_exchange(spheres_t *sp, const pops_t *p, const log_t *log)
     if (d == NULL || !decomp_parallel(d) || sp->n == 0) {
         return STATUS_OK;
     }
+    const double t0 = omp_get_wtime();
     size_t total = 0;
     for (int i = 0; i < 27; i++) {
         total += h->nsend[i];
@@ -458,6 +460,7 @@ status_t sphere_halo_exchange(spheres_t *sp, const pops_t *p, const log_t *log)
                          got, rdir[k], h->nrecv[rdir[k]] * LB_Q);
         }
     }
+    sp->dc->halo_seconds += omp_get_wtime() - t0;
     return st;
 }
 
