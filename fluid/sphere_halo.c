@@ -173,10 +173,14 @@ static int cells_sort(cells_t *c)
 
 /* Every unwrapped cell within `reach` of a sphere centre, in a box about
  * it: fn(sp, k, X, ctx) for each (the same box loops as spheres.c). */
-static int for_near_cells(const spheres_t *sp, double reach, int (*fn)(void *, const int X[3]), void *ctx)
+static int for_near_cells(const spheres_t *sp, double reach, const int blo[3], const int bn[3],
+                          int (*fn)(void *, const int X[3]), void *ctx)
 {
     for (int k = 0; k < sp->n; k++) {
         const sphere_t *p = &sp->s[k];
+        if (!spheres_near_block(sp, p->c, p->r + reach + 1.0, blo, bn)) {
+            continue;
+        }
         int lo[3], hi[3], X[3];
         for (int a = 0; a < 3; a++) {
             lo[a] = (int)floor(p->c[a] - p->r - reach);
@@ -240,6 +244,9 @@ static int add_send(void *v, const int X[3])
 static void mark_halo(spheres_t *sp, const double c[3], double r, uint8_t bit)
 {
     sphere_halo_t *h = &sp->halo;
+    if (!spheres_near_block(sp, c, r, sp->lo, sp->nb)) {
+        return;
+    }
     int lo[3], hi[3], X[3], Y[3];
     for (int a = 0; a < 3; a++) {
         lo[a] = (int)ceil(c[a] - r);
@@ -281,7 +288,7 @@ status_t sphere_halo_plan(spheres_t *sp, const log_t *log)
     status_t st = STATUS_OK;
     cells_t cells = {0};
     plan_ctx_t ctx = {.sp = sp, .cells = &cells};
-    if (!for_near_cells(sp, SPHERE_HALO_REACH, add_recv, &ctx) || !cells_sort(&cells)) {
+    if (!for_near_cells(sp, SPHERE_HALO_REACH, sp->lo, sp->nb, add_recv, &ctx) || !cells_sort(&cells)) {
         st = oom(log, cells.n);
         goto out;
     }
@@ -357,7 +364,7 @@ status_t sphere_halo_plan(spheres_t *sp, const log_t *log)
                 cells_t mine = {0};
                 ctx.cells = &mine;
                 const int ei = dir_index(e);
-                if (!for_near_cells(sp, SPHERE_HALO_REACH, add_send, &ctx) || !cells_sort(&mine)) {
+                if (!for_near_cells(sp, SPHERE_HALO_REACH, ctx.rlo, ctx.rn, add_send, &ctx) || !cells_sort(&mine)) {
                     free(mine.key);
                     free(mine.Y);
                     st = oom(log, mine.n);

@@ -80,6 +80,23 @@ int spheres_locate(const int lo[3], const int n[3], const int open[6], const int
     return owned ? 1 : 2;
 }
 
+int spheres_near_block(const spheres_t *sp, const double c[3], double r, const int lo[3], const int n[3])
+{
+    for (int a = 0; a < 3; a++) {
+        /* allocated coordinates of the widened block: lo - 1 .. lo + n + 2 */
+        const double b0 = lo[a] - 1 - 1.0, b1 = lo[a] + n[a] + 2 + 1.0;
+        int meets = 0;
+        for (int k = sp->periodic[a] ? -1 : 0; k <= (sp->periodic[a] ? 1 : 0) && !meets; k++) {
+            const double x = c[a] + k * sp->N[a];
+            meets = x + r >= b0 && x - r <= b1;
+        }
+        if (!meets) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* Global unwrapped allocated coordinates of local Y. */
 static void global_of(const spheres_t *sp, const int Y[3], int X[3])
 {
@@ -290,6 +307,9 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
                             size_t *cap)
 {
     const sphere_t *p = &sp->s[k];
+    if (!spheres_near_block(sp, p->c, p->r, sp->lo, sp->nb)) {
+        return STATUS_OK; /* another rank's sphere */
+    }
     int lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
         lo[a] = (int)ceil(p->c[a] - p->r);
@@ -587,6 +607,10 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                         link_list_t *list)
 {
     const sphere_t *p = &sp->s[k];
+    if (!spheres_near_block(sp, p->c, p->r + 2.0, sp->lo, sp->nb)) {
+        list->n = 0;
+        return 1; /* no cell of this block links to it */
+    }
     int nc = candidates(sp, k, cand);
     /* the other candidates, and their centres relative to c_k (minimum image) */
     double rel[nc > 0 ? nc : 1][3];

@@ -150,6 +150,10 @@ void spheres_wrap_centre(const spheres_t *sp, double c[3]);
  * a wall, or farther). */
 int spheres_locate(const int lo[3], const int n[3], const int open[6], const int periodic[3], const int N[3],
                    const int X[3], int Y[3]);
+/* 1 when the cells within r + reach of centre c (global lattice
+ * coordinates, periodic images included) can meet the block lo, n widened
+ * by two cells: a sphere far from a block costs it nothing. */
+int spheres_near_block(const spheres_t *sp, const double c[3], double r, const int lo[3], const int n[3]);
 /* The cell at local allocated coordinates Y as the stage reads it: 1 and
  * ref, flag (grid flags, or the halo's) when available, else 0. */
 int spheres_cell(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int Y[3], size_t *ref, uint8_t *flag);
