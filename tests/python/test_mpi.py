@@ -55,6 +55,8 @@ def run_ranks(tmp_path, scene_text, name, ranks=(1, 2, 4), sets=()):
         else:
             r = mpirun(np_, *args, env=env1())
         assert r.returncode == 0, f"{np_} ranks: {r.stderr[-3000:]}"
+        with h5py.File(out, "r") as f:
+            assert f.attrs["ranks"] == np_
         outs.append(out)
     return outs
 
