@@ -54,7 +54,7 @@ H5MPI_SRC   := tests/mpi/h5fields_mpi.c common/h5fields.c common/status.c
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
 
-.PHONY: all run test validate bench report approach-report drag-report fmus clean deps fuzz
+.PHONY: all run test validate bench bench-mpi report approach-report drag-report fmus clean deps fuzz
 all: $(BUILD)/coupler $(BUILD)/run_tests $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so $(BUILD)/h5fields_mpi
 
 deps:
@@ -92,11 +92,19 @@ validate: deps
 	OMP_NUM_THREADS=2 $(BUILD)/run_tests --validate
 	$(PY) -m pytest -q -m validate tests/python
 
+# The kernel against the memory bandwidth, and a coupled run against the fluid
+# alone (coupler bench). The strong scaling over MPI ranks and OpenMP threads,
+# with the halo model for a cluster: `make bench-mpi` (tools/mpi_scaling.py,
+# about a minute on 2 cores; CSV in $(BUILD)/bench).
 bench: deps
 	@$(MAKE) --no-print-directory all
 	@uptime
 	$(BUILD)/coupler bench --size 128 --size 256
 	$(BUILD)/coupler bench --coupled models/dual_star_shear.yaml --steps 200
+
+bench-mpi: deps
+	@$(MAKE) --no-print-directory all
+	$(PY) tools/mpi_scaling.py --coupler $(BUILD)/coupler --out $(BUILD)/bench
 
 $(BUILD)/rigid_report: $(LIB_OBJ) $(call obj,tests/rigid/rigid_report.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
