@@ -37,7 +37,7 @@ FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/lattice.c fluid/kernel.c
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
                rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \
                rigid/rigid_scene.c rigid/pairs.c rigid/lubrication.c rigid/contact_watch.c
-COUPLER_SRC := coupler/main.c coupler/mpi_env.c coupler/bench.c coupler/run.c coupler/fmu.c coupler/output.c coupler/export.c coupler/checkpoint.c coupler/summary.c coupler/resources.c \
+COUPLER_SRC := coupler/main.c coupler/mpi_env.c coupler/check_ranks.c coupler/bench.c coupler/run.c coupler/fmu.c coupler/output.c coupler/export.c coupler/checkpoint.c coupler/summary.c coupler/resources.c \
                common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_kernel.c tests/fluid/test_layouts.c \
                tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/drag_report.c tests/fluid/test_spheres.c \
@@ -54,7 +54,7 @@ H5MPI_SRC   := tests/mpi/h5fields_mpi.c common/h5fields.c common/status.c
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
 
-.PHONY: all run test validate bench report approach-report drag-report fmus clean deps fuzz
+.PHONY: all run test validate bench bench-mpi report approach-report drag-report fmus clean deps fuzz
 all: $(BUILD)/coupler $(BUILD)/run_tests $(BUILD)/fmu/fluid.so $(BUILD)/fmu/rigid.so $(BUILD)/h5fields_mpi
 
 deps:
@@ -92,11 +92,19 @@ validate: deps
 	OMP_NUM_THREADS=2 $(BUILD)/run_tests --validate
 	$(PY) -m pytest -q -m validate tests/python
 
+# The kernel against the memory bandwidth, and a coupled run against the fluid
+# alone (coupler bench). The strong scaling over MPI ranks and OpenMP threads,
+# with the halo model for a cluster: `make bench-mpi` (tools/mpi_scaling.py,
+# about a minute on 2 cores; CSV in $(BUILD)/bench).
 bench: deps
 	@$(MAKE) --no-print-directory all
 	@uptime
 	$(BUILD)/coupler bench --size 128 --size 256
 	$(BUILD)/coupler bench --coupled models/dual_star_shear.yaml --steps 200
+
+bench-mpi: deps
+	@$(MAKE) --no-print-directory all
+	$(PY) tools/mpi_scaling.py --coupler $(BUILD)/coupler --out $(BUILD)/bench
 
 $(BUILD)/rigid_report: $(LIB_OBJ) $(call obj,tests/rigid/rigid_report.c)
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)

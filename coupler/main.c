@@ -3,7 +3,7 @@
  *   coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]
  *                 [--exchange-every K] [--log-fmi-calls FILE] [--fluid-fmu F] [--rigid-fmu F]
  *                 [--checkpoint-every T] [--restart CHECKPOINT]
- *   coupler check SCENE.yaml [--set KEY=VALUE]...
+ *   coupler check SCENE.yaml [--set KEY=VALUE]... [--ranks N]
  *   coupler bench [--size N]... [--json]
  *   coupler bench --coupled SCENE.yaml [--steps N] [--json]
  *   coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...
@@ -15,6 +15,7 @@
 #include "../common/scene.h"
 #include "../fluid/units.h"
 #include "bench.h"
+#include "check_ranks.h"
 #include "mpi_env.h"
 #include "export.h"
 #include "resources.h"
@@ -40,7 +41,7 @@ static int usage(const char *msg)
                     "  coupler run   SCENE.yaml [-o OUT.h5] [--set KEY=VALUE]... [--steps N] [--quiet]\n"
                     "                [--exchange-every K] [--log-fmi-calls FILE] [--fluid-fmu F] [--rigid-fmu F]\n"
                     "                [--checkpoint-every T] [--restart CHECKPOINT]\n"
-                    "  coupler check SCENE.yaml [--set KEY=VALUE]...\n"
+                    "  coupler check SCENE.yaml [--set KEY=VALUE]... [--ranks N]\n"
                     "  coupler bench [--size N]... [--json]\n"
                     "  coupler bench --coupled SCENE.yaml [--steps N] [--json]\n"
                     "  coupler export SCENE.yaml -d DIR [--set KEY=VALUE]...\n");
@@ -126,7 +127,9 @@ static int check_step_ns(const scene_t *s, const units_t *u, const log_t *log)
     return 1;
 }
 
-static int cmd_check(const scene_t *s, const log_t *log)
+/* `world` > 0: the blocks of that many MPI ranks too (check_ranks.h); MPI
+ * is started for it here when mpirun did not start it. */
+static int cmd_check(const scene_t *s, int world, const log_t *log)
 {
     units_t u;
     if (units_derive(s, log, &u) != STATUS_OK) {
@@ -178,6 +181,15 @@ static int cmd_check(const scene_t *s, const log_t *log)
                (need.grid_cells * units_bytes_per_cell(s) + need.output) / 1e6);
         /* the default output goes to the current folder */
         a.nwarnings += resources_compare(&need, ".", STATUS_WARNING, log);
+    }
+    if (world > 0) {
+        /* MPI_Dims_create needs MPI, without other ranks */
+        if (world > 1 && mpi_env_init_alone() != 0) {
+            return 1;
+        }
+        if (check_ranks(s, u.n, world, log, &a.nwarnings) >= STATUS_ERROR) {
+            return 1;
+        }
     }
     printf("  warnings           %d\n", a.nwarnings);
     return 0;
@@ -271,11 +283,15 @@ static int run_main(int argc, char **argv)
         fprintf(stderr, "coupler: unknown command '%s'\n", cmd);
         return usage(NULL);
     }
+    if (strcmp(cmd, "check") == 0 && mpi_env_rank() > 0) {
+        /* every rank checks the same scene alike: rank 0 says it once */
+        log.fn = NULL;
+    }
     const char *scene_path = NULL, *output = NULL, *export_dir = NULL;
     const char *log_calls = NULL, *fluid_fmu = NULL, *rigid_fmu = NULL, *restart = NULL;
     const char *sets[MAX_SETS];
     int nsets = 0, quiet = 0;
-    long steps = 0, every = 1;
+    long steps = 0, every = 1, ranks = 0;
     double checkpoint = 0.0, checkpoint_every = 0.0;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
@@ -312,6 +328,10 @@ static int run_main(int argc, char **argv)
             }
         } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--restart") == 0 && has_value) {
             restart = argv[++i];
+        } else if (strcmp(cmd, "check") == 0 && strcmp(a, "--ranks") == 0 && has_value) {
+            if (!parse_long("--ranks", argv[++i], 1, 65536, &ranks)) {
+                return 2;
+            }
         } else if (strcmp(cmd, "export") == 0 && strcmp(a, "-d") == 0 && has_value) {
             export_dir = argv[++i];
         } else if (strcmp(cmd, "run") == 0 && strcmp(a, "--quiet") == 0) {
@@ -344,7 +364,8 @@ static int run_main(int argc, char **argv)
     }
     int rc;
     if (strcmp(cmd, "check") == 0) {
-        rc = cmd_check(scene, &log);
+        /* under mpirun without --ranks: the blocks of the ranks started */
+        rc = cmd_check(scene, ranks > 0 ? (int)ranks : mpi_env_size() > 1 ? mpi_env_size() : 0, &log);
     } else if (strcmp(cmd, "export") == 0) {
         char lib_dir[4096];
         fmu_lib_dir(lib_dir, sizeof lib_dir);

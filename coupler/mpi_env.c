@@ -15,11 +15,8 @@ static int launched_by_mpirun(void)
     return getenv("OMPI_COMM_WORLD_SIZE") != NULL || getenv("PMIX_RANK") != NULL || getenv("PMI_RANK") != NULL;
 }
 
-int mpi_env_init(int *argc, char ***argv)
+static int start(int *argc, char ***argv, const char *why)
 {
-    if (!launched_by_mpirun()) {
-        return 0;
-    }
     /* Open MPI 4.1's own MPI-IO (OMPIO) wrote parts of the parallel field
      * snapshots wrong here (blocks of zeros and garbage, different from run
      * to run; tests/python/test_mpi.py); ROMIO writes them right. A user's
@@ -28,12 +25,14 @@ int mpi_env_init(int *argc, char ***argv)
     int provided = 0;
     /* OpenMP threads inside a rank; only the main thread calls MPI */
     if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
-        fprintf(stderr, "error: [mpi] MPI_Init_thread failed: this process cannot join the other ranks\n");
+        fprintf(stderr, "error: [mpi] MPI_Init_thread failed: %s\n", why);
         return 1;
     }
     started = 1;
-    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    if (MPI_Comm_rank(MPI_COMM_WORLD, &rank) != MPI_SUCCESS || MPI_Comm_size(MPI_COMM_WORLD, &size) != MPI_SUCCESS) {
+        fprintf(stderr, "error: [mpi] MPI_Comm_rank or MPI_Comm_size failed after MPI_Init_thread\n");
+        return 1;
+    }
     /* OpenMP threads: as many as this rank's cores (mpirun binds a rank
      * to a core by default for up to 2 ranks, to a socket beyond; two
      * threads spinning on one core run ten times slower), unless the user
@@ -44,6 +43,23 @@ int mpi_env_init(int *argc, char ***argv)
         omp_set_num_threads(cores > 0 ? cores : 1);
     }
     return 0;
+}
+
+int mpi_env_init(int *argc, char ***argv)
+{
+    if (!launched_by_mpirun()) {
+        return 0;
+    }
+    return start(argc, argv, "this process cannot join the other ranks");
+}
+
+int mpi_env_init_alone(void)
+{
+    if (started) {
+        return 0;
+    }
+    /* a singleton: MPI_COMM_WORLD holds this process alone (size stays 1) */
+    return start(NULL, NULL, "MPI cannot start in this process alone (a singleton, without mpirun)");
 }
 
 int mpi_env_rank(void) { return rank; }

@@ -327,7 +327,7 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
         output_close(o);
         return STATUS_ERROR;
     }
-    const double grid[3] = {u->n[0], u->n[1], u->n[2]}, ranks = 1.0;
+    const double grid[3] = {u->n[0], u->n[1], u->n[2]}, ranks = layout->ranks;
     st = attr_string(o, o->file, "scene", scene->text ? scene->text : "");
     st = status_worst(st, attr_string(o, o->file, "scene_file", scene->path ? scene->path : ""));
     st = status_worst(st, attr_string(o, o->file, "version", AGGLO_VERSION));

@@ -35,6 +35,7 @@ typedef struct {
     const int *pairs;        /* [nc][2] */
     const char *fields_file; /* NULL: no /fields; else the field file (its name relative to the output's folder) */
     int bodies;              /* 1: /bodies (a rigid component runs) */
+    int ranks;               /* MPI ranks of the run (the root attribute "ranks") */
 } output_layout_t;
 
 /* One output row, SI; arrays of ns*3, ns, nc*3 and nc values (NULL when the

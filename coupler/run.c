@@ -802,7 +802,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         pairs[2 * k] = scene->connections[k].a;
         pairs[2 * k + 1] = scene->connections[k].b;
     }
-    output_layout_t layout = {m.ns, m.nc, pairs, fields_rel, m.rigid != NULL};
+    output_layout_t layout = {m.ns, m.nc, pairs, fields_rel, m.rigid != NULL, mpi_env_size()};
     units_t shown = m.un;
     shown.dt = dt; /* the time base of the run (may differ from units_derive's dt in the last bit) */
     /* a restart writes the output anew: the rows to the checkpoint from its copy */

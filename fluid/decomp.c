@@ -75,8 +75,9 @@ status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world,
         memcpy(dims, s->run.ranks, sizeof dims);
         if (dims[0] * dims[1] * dims[2] != world) {
             return log_msg(log, STATUS_ERROR, "fluid",
-                           "%s: run.ranks [%d, %d, %d] makes %d blocks, but mpirun started %d ranks: the product "
-                           "must equal the number of ranks (or leave run.ranks out to let MPI_Dims_create choose)",
+                           "%s: run.ranks [%d, %d, %d] makes %d blocks, but there are %d MPI ranks (mpirun -np, or "
+                           "coupler check --ranks): the product must equal the number of ranks (or leave run.ranks "
+                           "out to let MPI_Dims_create choose)",
                            path, dims[0], dims[1], dims[2], dims[0] * dims[1] * dims[2], world);
         }
     } else {

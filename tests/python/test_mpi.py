@@ -55,6 +55,8 @@ def run_ranks(tmp_path, scene_text, name, ranks=(1, 2, 4), sets=()):
         else:
             r = mpirun(np_, *args, env=env1())
         assert r.returncode == 0, f"{np_} ranks: {r.stderr[-3000:]}"
+        with h5py.File(out, "r") as f:
+            assert f.attrs["ranks"] == np_
         outs.append(out)
     return outs
 
@@ -152,7 +154,7 @@ def test_bad_rank_counts_are_refused(tmp_path):
     r = mpirun(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 4]",
                env=env1())
     assert r.returncode != 0
-    assert "run.ranks [1, 1, 4] makes 4 blocks, but mpirun started 2 ranks" in r.stderr
+    assert "run.ranks [1, 1, 4] makes 4 blocks, but there are 2 MPI ranks" in r.stderr
     r = mpirun(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 2]",
                "--set", "domain.size=[1.6e-3, 1.2e-3, 5.0e-4]", env=env1())
     assert r.returncode != 0
