@@ -92,9 +92,18 @@ status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world,
                            "ranks: use one rank, or more cells (fluid.dx)",
                            path, N[0], N[1], N[2], 2 * DECOMP_MIN_CELLS, world);
         }
-        if (MPI_Dims_create(world, 3, dims) != MPI_SUCCESS) {
+        /* MPI_Dims_create returns its sizes largest first: given as (z, y,
+         * x), the most ranks go along z and the fewest along x, whose rows
+         * the kernel streams (a cut along x shortens every row and its
+         * exchange copies strided values: 2 ranks ran at 0.68-0.72 of ideal
+         * cut along x, 0.87-0.91 along z; README "Several MPI ranks") */
+        int rev[3] = {dims[2], dims[1], dims[0]};
+        if (MPI_Dims_create(world, 3, rev) != MPI_SUCCESS) {
             return log_msg(log, STATUS_ERROR, "fluid", "%s: MPI_Dims_create cannot split %d ranks", path, world);
         }
+        dims[0] = rev[2];
+        dims[1] = rev[1];
+        dims[2] = rev[0];
     }
     for (int a = 0; a < 3; a++) {
         if (dims[a] > 1 && N[a] / dims[a] < DECOMP_MIN_CELLS) {

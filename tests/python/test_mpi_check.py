@@ -15,8 +15,9 @@ rules the C code documents:
   the other two axes with the ghost rows of the axes before a (x before y
   before z) and of the faces that are domain walls (not exchanged, not a
   periodic axis held by one rank).
-MPI_Dims_create's choice for 4 ranks is [2, 2, 1] (the MPI standard: as
-balanced as possible, non-increasing).
+MPI_Dims_create's choice for 4 ranks is (2, 2, 1) (the MPI standard: as
+balanced as possible, non-increasing), given to the axes z, y, x in that
+order (fluid/decomp.c: the fewest ranks along x): [1, 2, 2].
 """
 import os
 import re
@@ -161,27 +162,30 @@ def test_four_ranks_blocks_memory_and_halo(coupler, tmp_path, streaming, precisi
     p = run("check", scene, "--ranks", "4")
     assert p.returncode == 0, p.stderr
     world, dims, source, rows, total = report(p.stdout)
-    assert (world, dims, source) == (4, [2, 2, 1], "MPI_Dims_create")
+    assert (world, dims, source) == (4, [1, 2, 2], "MPI_Dims_create")
     want = expected((64, 32, 16), dims, (1, 0, 0), streaming, precision)
     assert_rows(rows, want)
     assert total == sum(r["halo"] for r in want)
-    # by hand for rank 0 in double: x cut (periodic, both faces to rank 2) over
-    # 17 x 18 cells (y: the free-slip ghost row; z: both wall rows), y cut
-    # (one face to rank 1) over 34 x 18 (x with its ghosts, done before y)
+    # by hand for rank 0 in double, block 64 x 16 x 8: the y cut (one face, to
+    # rank 2) over 66 x 9 cells (x with its ghosts, done before y; z: the wall
+    # row below), the z cut (one face, to rank 1) over 66 x 18 (x and y with
+    # their ghosts); x periodic on one rank: the local copy, no message.
+    # Memory: s = 72 (66 padded to 8) x 18 x 10 = 12960 cells, stride 13336
     if precision == "double":
-        assert rows[0]["halo"] == 2 * 5 * 17 * 18 * 8 + 5 * 34 * 18 * 8
-        assert rows[0]["mb"] == pytest.approx((19 * 13336 * 8 + 40 * 18 * 18) / 1e6, abs=5e-4)
+        assert rows[0]["halo"] == 5 * 66 * 9 * 8 + 5 * 66 * 18 * 8
+        assert rows[0]["mb"] == pytest.approx((19 * 13336 * 8 + 72 * 18 * 10) / 1e6, abs=5e-4)
 
 
 def test_uneven_blocks_first_ones_larger(coupler, tmp_path):
-    """65 x 33 cells over 3 x 2 ranks: x blocks 22, 22, 21; y 17, 16."""
+    """65 x 33 x 16 cells over 6 ranks as [1, 2, 3]: z blocks 6, 5, 5; y 17, 16."""
     scene = write_scene(tmp_path, cells=(65, 33, 16))
     p = run("check", scene, "--ranks", "6")
     assert p.returncode == 0, p.stderr
     world, dims, source, rows, _ = report(p.stdout)
-    assert (world, dims) == (6, [3, 2, 1])
+    assert (world, dims) == (6, [1, 2, 3])
     assert_rows(rows, expected((65, 33, 16), dims, (1, 0, 0)))
-    assert [r["n"][0] for r in rows[::2]] == [22, 22, 21]
+    assert [r["n"][2] for r in rows[:3]] == [6, 5, 5]
+    assert [r["n"][1] for r in rows[::3]] == [17, 16]
 
 
 @pytest.mark.parametrize("ranks", [[2, 2, 1], [1, 1, 4], [1, 2, 2], [4, 1, 1]])
@@ -251,7 +255,7 @@ def test_ranks_is_for_check_only(coupler, tmp_path):
 
 
 @pytest.mark.parametrize("args,message", [
-    (["--ranks", "17"], "64 cells along x over 17 ranks leaves blocks of fewer than 4 cells"),
+    (["--ranks", "17"], "16 cells along z over 17 ranks leaves blocks of fewer than 4 cells"),
     (["--ranks", "8", "--set", "run.ranks=[1, 1, 8]"], "16 cells along z over 8 ranks leaves blocks of fewer than 4"),
     (["--ranks", "3", "--set", "run.ranks=[2, 2, 1]"], "run.ranks [2, 2, 1] makes 4 blocks, but there are 3 MPI ranks"),
 ])
@@ -281,7 +285,7 @@ def test_under_mpirun_the_world_is_reported_once(coupler, tmp_path):
     assert p.returncode == 0, p.stderr
     assert p.stdout.count("MPI ranks") == 1 and p.stdout.count(str(scene)) == 1, p.stdout
     world, dims, source, rows, total = report(p.stdout)
-    assert (world, dims, source) == (2, [2, 1, 1], "MPI_Dims_create")
+    assert (world, dims, source) == (2, [1, 1, 2], "MPI_Dims_create")
     want = expected((64, 32, 16), dims, (1, 0, 0))
     assert_rows(rows, want)
     # --ranks wins over the world size
