@@ -4,7 +4,8 @@
 Measures the time per fluid step of fully periodic cubes without bodies (in_place streaming,
 double precision; 96^3 and 128^3 cells by default) for 1 rank x 1 thread, 1 rank x 2 threads
 (OpenMP) and 2 ranks x 1 thread (`mpirun -np 2`, Open MPI's default binding of a rank to a
-core; cut along x as MPI_Dims_create chooses, and along z with run.ranks), each the best of 3 runs of `coupler run SCENE --steps K --quiet`. The time is the fluid's
+core; cut along z as MPI_Dims_create's choice goes to the axes, and along x with run.ranks for
+comparison), each the best of 3 runs of `coupler run SCENE --steps K --quiet`. The time is the fluid's
 own wall time (attribute `wall_time_fluid` of the result file's root, coupler/run.c: the seconds
 rank 0 spent in the fluid FMU's doStep, halo exchange and waits for the other rank included,
 output rows not), divided by K. Prints `uptime` before and after (the machine may be shared), a
@@ -53,8 +54,8 @@ run:
 # cut along z is measured too: the exchange of an x face packs one value per row of every
 # population (strided), of a z face whole contiguous rows.
 CONFIGS = [("1 rank x 1 thread", 1, 1, []), ("1 rank x 2 threads", 1, 2, []),
-           ("2 ranks x 1 thread, x cut", 2, 1, []),
-           ("2 ranks x 1 thread, z cut", 2, 1, ["run.ranks=[1, 1, 2]"])]
+           ("2 ranks x 1 thread, x cut", 2, 1, ["run.ranks=[2, 1, 1]"]),
+           ("2 ranks x 1 thread, z cut", 2, 1, [])]
 
 
 def uptime():
