@@ -20,6 +20,7 @@ and 256^3 cells and the share of a step the exchange would take on a 100 Gbit/s 
 """
 import argparse
 import csv
+import math
 import os
 import pathlib
 import re
@@ -97,7 +98,15 @@ def halo_per_rank(coupler, scene, ranks, sets):
     return int(m.group(1))
 
 
-def halo_model(n, mlups_per_core, cores_per_rank=8, bandwidth_bits=100e9, latency=2e-6, value_bytes=8):
+# Measured here (README "Several MPI ranks"): 2 ranks x 1 thread against 1 rank x 2 threads (the
+# same two cores and memory bandwidth), z cut: 1.20 ms more per step at 128^3 for 1.352 MB sent
+# per rank, 0.89 ms at 96^3 for 0.768 MB: about 1 ns per byte sent for packing, Open MPI's
+# shared-memory copy, unpacking and the wait, on one core.
+COPY_NS_PER_BYTE = 1.0
+
+
+def halo_model(n, mlups_per_core, cores_per_rank=8, bandwidth_bits=100e9, latency=2e-6, value_bytes=8,
+               copy_ns_per_byte=COPY_NS_PER_BYTE, copy_speedup=4.0):
     """Halo bytes per rank per step and the fraction of a step spent in the exchange, for a
     cubic block of n^3 cells per rank in the interior of a 3-D decomposition.
 
@@ -116,8 +125,11 @@ def halo_model(n, mlups_per_core, cores_per_rank=8, bandwidth_bits=100e9, latenc
       threads run the kernel at cores_per_rank times the rate measured here on one core
       (optimistic where the memory bandwidth of the socket saturates first), and the rank has
       the whole 100 Gbit/s, 2 us port to itself (one rank per node, or a port per rank).
+    - The copies (packing, unpacking; on a cluster the network card moves the bytes) cost
+      copy_ns_per_byte per byte sent, measured on one core here (COPY_NS_PER_BYTE), divided by
+      copy_speedup = 4 for the 8 cores of a rank (the copies are OpenMP loops, memory-bound).
     - t_kernel = n^3 / (mlups_per_core * 1e6 * cores_per_rank); fraction = t_halo /
-      (t_kernel + t_halo).
+      (t_kernel + t_halo), t_halo = wire time + copies.
     Returns (halo_bytes, halo / populations of the block (19 values per cell), t_kernel,
     t_halo, fraction).
     """
@@ -125,9 +137,41 @@ def halo_model(n, mlups_per_core, cores_per_rank=8, bandwidth_bits=100e9, latenc
     halo = sum(2 * HALO_Q * value_bytes * f for f in faces)
     bandwidth = bandwidth_bits / 8.0
     t_halo = sum(latency + 2 * HALO_Q * value_bytes * f / bandwidth for f in faces)
+    t_halo += halo * copy_ns_per_byte * 1e-9 / copy_speedup
     t_kernel = n ** 3 / (mlups_per_core * 1e6 * cores_per_rank)
     share = halo / (LB_Q * value_bytes * n ** 3)
     return halo, share, t_kernel, t_halo, t_halo / (t_kernel + t_halo)
+
+
+# Collective calls per fluid step (fluid/fluid.c, spheres.c): the status agreement after the
+# boundary stage; with moving spheres also the broadcast of the kinematics, the agreements around
+# the sphere halo's plan and its two exchanges, and the exact sum of the loads (2 allreduces).
+COLLECTIVES = {"fluid only": 1, "moving spheres": 8}
+
+
+def weak_scaling(n, ranks, mlups_per_core, collectives, cores_per_rank=8, latency=2e-6, **kw):
+    """Parallel efficiency of `ranks` ranks with an n^3 block each (weak scaling), against one
+    rank with no exchange: t_kernel / (t_kernel + t_halo + t_coll).
+
+    Assumptions (beyond halo_model's): every rank has 6 neighbours on other ranks (a periodic
+    domain, or the interior of a large one), so t_halo does not grow with the ranks; each
+    collective is a small allreduce or broadcast taking ceil(log2 ranks) latencies (recursive
+    doubling or a binomial tree; its bytes are negligible: the loads are 160 bytes per sphere);
+    no load imbalance, no network contention, no OS noise. Returns (efficiency, t_coll)."""
+    if ranks == 1:
+        return 1.0, 0.0
+    _, _, tk, th, _ = halo_model(n, mlups_per_core, cores_per_rank=cores_per_rank, latency=latency, **kw)
+    t_coll = collectives * math.ceil(math.log2(ranks)) * latency
+    return tk / (tk + th + t_coll), t_coll
+
+
+def print_weak_scaling(per_core):
+    print(f"\nweak scaling model (weak_scaling in {pathlib.Path(__file__).name}): efficiency against one rank")
+    print(f"{'block':>7} {'ranks':>6} " + " ".join(f"{k:>15}" for k in COLLECTIVES))
+    for n in (64, 128, 256):
+        for ranks in (8, 64, 1000):
+            effs = [weak_scaling(n, ranks, per_core, c)[0] for c in COLLECTIVES.values()]
+            print(f"{n:>5}^3 {ranks:>6} " + " ".join(f"{e:>15.3f}" for e in effs))
 
 
 def main():
@@ -136,9 +180,15 @@ def main():
     ap.add_argument("--out", default=str(ROOT / "build" / "bench"), help="folder of the CSV files")
     ap.add_argument("--sizes", type=int, nargs="+", default=[96, 128])
     ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--model-only", type=float, metavar="MLUPS_PER_CORE",
+                    help="print only the model figures for this kernel rate per core (no runs)")
     ap.add_argument("--updates", type=float, default=1e8,
                     help="cell updates per run (steps K = updates / cells, at least 10): about 2 s at 1 x 1")
     args = ap.parse_args()
+    if args.model_only:
+        print_model(args.model_only)
+        print_weak_scaling(args.model_only)
+        return
     coupler = pathlib.Path(args.coupler)
     if not coupler.exists():
         sys.exit(f"mpi_scaling: {coupler} is missing: run `make all` first")
@@ -195,10 +245,22 @@ def main():
     # the model: the kernel rate per core at 1 x 1 on the largest cube measured
     largest = f"{max(args.sizes)}^3"
     per_core = next(r["mlups"] for r in rows if r["cells"] == largest and r["ranks"] == 1 and r["threads"] == 1)
+    model = print_model(per_core, largest)
+    print_weak_scaling(per_core)
+    model_path = out_dir / "mpi_scaling_model.csv"
+    with open(model_path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(model[0]))
+        w.writeheader()
+        w.writerows(model)
+    print(f"\nwrote {csv_path} and {model_path}")
+
+
+def print_model(per_core, largest="the cube"):
     print()
     print(f"model (halo_model in {pathlib.Path(__file__).name}): kernel {per_core:.1f} MLUPS per core "
           f"(1 x 1, {largest}, double, in_place) x 8 cores per rank; 6 face messages per step in 3 rounds of 2 "
-          "(one per axis), a round = 2 us + 2 x face bytes / 100 Gbit/s; no overlap with the kernel")
+          "(one per axis), a round = 2 us + 2 x face bytes / 100 Gbit/s, copies 1 ns per byte sent / 4; no overlap "
+          "with the kernel")
     print(f"{'block':>7} {'halo MB/step/rank':>18} {'halo/pops':>10} {'t_kernel ms':>12} {'t_halo ms':>10} "
           f"{'halo share':>10}")
     model = []
@@ -208,12 +270,7 @@ def main():
                       "t_kernel_s": tk, "t_halo_s": th, "halo_fraction": frac, "mlups_per_core": per_core})
         print(f"{n:>5}^3 {halo / 1e6:>18.3f} {100 * share:>9.2f}% {1e3 * tk:>12.3f} {1e3 * th:>10.4f} "
               f"{100 * frac:>9.2f}%")
-    model_path = out_dir / "mpi_scaling_model.csv"
-    with open(model_path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(model[0]))
-        w.writeheader()
-        w.writerows(model)
-    print(f"\nwrote {csv_path} and {model_path}")
+    return model
 
 
 if __name__ == "__main__":
