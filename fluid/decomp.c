@@ -217,33 +217,49 @@ static int directions(int a, int dir, int qs[5])
 }
 
 /* Copies layer `layer` of axis a (cells lo..hi on the other axes), the
- * directions qs, between the populations and buf (out: to buf). */
+ * directions qs, between the populations and buf (out: to buf). Direction
+ * by direction, rows along the faster axis: contiguous runs for x and y
+ * faces; typed copies (a memcpy of a run-time size per value cost a call). */
+#define LAYER_COPY(T, base)                                                                  \
+    do {                                                                                     \
+        T *restrict pf = (T *)(base);                                                        \
+        T *restrict bf = (T *)buf;                                                           \
+        _Pragma("omp parallel for collapse(2) schedule(static)")                             \
+        for (int m = 0; m < nq; m++) {                                                       \
+            for (int jj = lo[c]; jj <= hi[c]; jj++) {                                        \
+                int X[3];                                                                    \
+                X[a] = layer;                                                                \
+                X[c] = jj;                                                                   \
+                X[b] = lo[b];                                                                \
+                const size_t q = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(qs[m]) : qs[m]); \
+                const size_t s0 = q * p->n + grid_index(g, X[0], X[1], X[2]);                \
+                size_t k = ((size_t)m * (size_t)nc + (size_t)(jj - lo[c])) * (size_t)nb;    \
+                for (int ii = 0; ii < nb; ii++, k++) {                                       \
+                    const size_t slot = s0 + (size_t)ii * stride_b;                          \
+                    if (out) {                                                               \
+                        bf[k] = pf[slot];                                                    \
+                    } else {                                                                 \
+                        pf[slot] = bf[k];                                                    \
+                    }                                                                        \
+                }                                                                            \
+            }                                                                                \
+        }                                                                                    \
+    } while (0)
+
 static void layer_copy(const grid_t *g, const pops_t *p, int a, int layer, const int lo[3], const int hi[3],
                        const int *qs, int nq, unsigned char *buf, int out)
 {
-    const int b = (a + 1) % 3, c = (a + 2) % 3, nb = hi[b] - lo[b] + 1;
-    const size_t es = p->h != NULL ? sizeof(float) : sizeof(double);
-#pragma omp parallel for schedule(static)
-    for (int j = lo[c]; j <= hi[c]; j++) {
-        int X[3];
-        X[a] = layer;
-        X[c] = j;
-        size_t k = (size_t)(j - lo[c]) * (size_t)nb * (size_t)nq * es;
-        for (int i = lo[b]; i <= hi[b]; i++) {
-            X[b] = i;
-            const size_t cell = grid_index(g, X[0], X[1], X[2]);
-            for (int m = 0; m < nq; m++, k += es) {
-                const size_t slot = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(qs[m]) : qs[m]) * p->n + cell;
-                void *v = p->h != NULL ? (void *)(p->h + slot) : (void *)(p->f + slot);
-                if (out) {
-                    memcpy(buf + k, v, es);
-                } else {
-                    memcpy(v, buf + k, es);
-                }
-            }
-        }
+    /* b the faster of the other two axes (x for y and z faces) */
+    const int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2, nb = hi[b] - lo[b] + 1, nc = hi[c] - lo[c] + 1;
+    const int e[3] = {b == 0, b == 1, b == 2};
+    const size_t stride_b = (size_t)grid_offset(g, e[0], e[1], e[2]);
+    if (p->h != NULL) {
+        LAYER_COPY(float, p->h);
+    } else {
+        LAYER_COPY(double, p->f);
     }
 }
+#undef LAYER_COPY
 
 /* PULL, SWAPPED: the post-collision values of my outer interior layers go to
  * the neighbours' ghost layers. PUSHED: the push kernel left the values
