@@ -1036,8 +1036,8 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
     memcpy(in->values, s->bytes + sizeof h, nval);
     in->t = h.t;
     in->t_start = h.t_start;
-    in->t_stop = h.t_stop;
-    in->has_stop = h.has_stop;
+    /* the stop time stays this instance's own (fmi2SetupExperiment): a
+     * restart may run longer than the run that saved the state */
     if (h.has_comp) {
         if (in->comp == NULL) {
             /* re-create with the parameters the state was made with */

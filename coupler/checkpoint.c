@@ -4,8 +4,10 @@
  *   root attributes  format ("agglo checkpoint"), format_version, scene (the
  *                    scene text), origin_coupler, origin_fluid, origin_rigid,
  *                    step, nsteps, rows, next_out, exchange_every (int64),
- *                    h (s), wall [3] (s)
- *   /fluid_state     uint8 [size]   fmi2SerializeFMUstate of the fluid FMU
+ *                    h (s), wall [3] (s), ranks (int64), decomposition
+ *                    [3] (int64: blocks along x, y, z)
+ *   /fluid_state/K   uint8 [size]   fmi2SerializeFMUstate of the fluid FMU of
+ *                                   rank K = 0 .. ranks - 1 (its block)
  *   /rigid_state     uint8 [size]   the same of the rigid FMU (when there is one)
  *   /settle/{time,velocity}  double [n]  settling-summary history (when kept)
  *   /output/...      the output file's time series as far as written (the
@@ -29,7 +31,7 @@
 
 #define CAT "checkpoint"
 #define FORMAT "agglo checkpoint"
-#define FORMAT_VERSION 1
+#define FORMAT_VERSION 2 /* 2: ranks, decomposition, /fluid_state/K */
 
 void checkpoint_path(const char *output, char *buf, size_t n)
 {
@@ -203,19 +205,22 @@ static status_t sync_path(const char *path, int directory, const log_t *log)
 }
 
 status_t checkpoint_write(const char *path, const scene_t *scene, const checkpoint_origin_t *origin,
-                          const checkpoint_t *c, checkpoint_fill_t fill, void *ctx, const log_t *log)
+                          const checkpoint_t *c, const checkpoint_hooks_t *hooks, const log_t *log)
 {
-    char tmp[4200], dir[4200];
-    if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp) {
-        return log_msg(log, STATUS_ERROR, CAT, "%s: path too long", path);
-    }
+    char tmp[4200], dir[4200], block[64];
+    status_t st = STATUS_OK;
+    hid_t f = -1;
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL); /* errors are reported by us */
-    hid_t f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-    if (f < 0) {
-        return log_msg(log, STATUS_ERROR, CAT, "%s: cannot create the checkpoint file (is the folder writable?)", tmp);
+    if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp) {
+        st = log_msg(log, STATUS_ERROR, CAT, "%s: path too long", path);
+    } else if ((f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT)) < 0) {
+        st = log_msg(log, STATUS_ERROR, CAT, "%s: cannot create the checkpoint file (is the folder writable?)", tmp);
     }
+    const int64_t dims[3] = {c->ranks.dims[0], c->ranks.dims[1], c->ranks.dims[2]};
     const char *what = NULL;
-    if (!put_string(f, "format", FORMAT) || !put_long(f, "format_version", FORMAT_VERSION)) {
+    if (st != STATUS_OK) {
+        /* the blocks of the other ranks are still taken below */
+    } else if (!put_string(f, "format", FORMAT) || !put_long(f, "format_version", FORMAT_VERSION)) {
         what = "the format attributes";
     } else if (!put_string(f, "scene", scene->text != NULL ? scene->text : "") ||
                !put_string(f, "scene_file", scene->path != NULL ? scene->path : "")) {
@@ -226,40 +231,61 @@ status_t checkpoint_write(const char *path, const scene_t *scene, const checkpoi
     } else if (!put_long(f, "step", c->step) || !put_long(f, "nsteps", c->nsteps) || !put_long(f, "rows", c->rows) ||
                !put_long(f, "next_out", c->next_out) || !put_long(f, "exchange_every", c->exchange_every) ||
                !put_numbers(f, "h", H5T_NATIVE_DOUBLE, &c->h, 1) ||
-               !put_numbers(f, "wall", H5T_NATIVE_DOUBLE, c->wall, 3)) {
+               !put_numbers(f, "wall", H5T_NATIVE_DOUBLE, c->wall, 3) || !put_long(f, "ranks", c->ranks.ranks) ||
+               !put_numbers(f, "decomposition", H5T_NATIVE_INT64, dims, 3)) {
         what = "the master's counters";
-    } else if (!put_array(f, "/fluid_state", H5T_NATIVE_UCHAR, c->fluid_state, c->fluid_size)) {
-        what = "/fluid_state";
-    } else if (c->rigid_state != NULL && !put_array(f, "/rigid_state", H5T_NATIVE_UCHAR, c->rigid_state, c->rigid_size)) {
+    } else if (!put_array(f, "/fluid_state/0", H5T_NATIVE_UCHAR, c->fluid_state, c->fluid_size)) {
+        what = "/fluid_state/0";
+    }
+    /* every other rank's block is taken, even after an error: the ranks wait to send it */
+    for (int k = 1; k < c->ranks.ranks; k++) {
+        const unsigned char *bytes = NULL;
+        size_t size = 0;
+        const status_t bst = hooks->block(hooks->ctx, k, &bytes, &size);
+        if (st != STATUS_OK || what != NULL) {
+            continue;
+        }
+        snprintf(block, sizeof block, "/fluid_state/%d", k);
+        if (bst >= STATUS_ERROR) {
+            st = bst;
+        } else if (!put_array(f, block, H5T_NATIVE_UCHAR, bytes, size)) {
+            what = block;
+        }
+    }
+    if (st != STATUS_OK || what != NULL) {
+        /* reported */
+    } else if (c->rigid_state != NULL &&
+               !put_array(f, "/rigid_state", H5T_NATIVE_UCHAR, c->rigid_state, c->rigid_size)) {
         what = "/rigid_state";
     } else if (c->settle_t != NULL &&
                (!put_array(f, "/settle/time", H5T_NATIVE_DOUBLE, c->settle_t, (hsize_t)c->nsettle) ||
                 !put_array(f, "/settle/velocity", H5T_NATIVE_DOUBLE, c->settle_v, (hsize_t)c->nsettle))) {
         what = "/settle";
     }
-    if (H5Fclose(f) < 0 && what == NULL) {
+    if (f >= 0 && H5Fclose(f) < 0 && st == STATUS_OK && what == NULL) {
         what = "the file (closing)";
     }
     if (what != NULL) {
-        remove(tmp);
-        return log_msg(log, STATUS_ERROR, CAT, "%s: HDF5 error while writing %s; the previous checkpoint %s is kept",
-                       tmp, what, path);
+        st = log_msg(log, STATUS_ERROR, CAT, "%s: HDF5 error while writing %s; the previous checkpoint %s is kept",
+                     tmp, what, path);
     }
-    if (fill != NULL && fill(ctx, tmp) != STATUS_OK) {
-        remove(tmp);
-        return log_msg(log, STATUS_ERROR, CAT, "%s could not be completed (see above); the previous checkpoint %s is kept",
-                       tmp, path);
+    if (st == STATUS_OK && hooks->fill != NULL && hooks->fill(hooks->ctx, tmp) != STATUS_OK) {
+        st = log_msg(log, STATUS_ERROR, CAT, "%s could not be completed (see above); the previous checkpoint %s is kept",
+                     tmp, path);
     }
-    resources_folder(path, dir, sizeof dir);
-    if (sync_path(tmp, 0, log) != STATUS_OK) {
-        remove(tmp);
-        return STATUS_ERROR;
+    if (st == STATUS_OK) {
+        st = sync_path(tmp, 0, log);
     }
-    if (rename(tmp, path) != 0) {
-        const status_t st = log_msg(log, STATUS_ERROR, CAT, "cannot rename %s to %s: %s", tmp, path, strerror(errno));
-        remove(tmp);
+    if (st == STATUS_OK && rename(tmp, path) != 0) {
+        st = log_msg(log, STATUS_ERROR, CAT, "cannot rename %s to %s: %s", tmp, path, strerror(errno));
+    }
+    if (st != STATUS_OK) {
+        if (f >= 0) {
+            remove(tmp);
+        }
         return st;
     }
+    resources_folder(path, dir, sizeof dir);
     return sync_path(dir, 1, log);
 }
 
@@ -308,8 +334,45 @@ void checkpoint_free(checkpoint_t *c)
     memset(c, 0, sizeof *c);
 }
 
-status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoint_origin_t *origin, checkpoint_t *c,
-                         const log_t *log)
+/* The ranks and blocks that wrote the checkpoint must be this run's: each
+ * rank restores the block of its own number. */
+static status_t same_ranks(const char *path, hid_t f, const checkpoint_ranks_t *now, checkpoint_ranks_t *then,
+                           const log_t *log)
+{
+    long ranks = 0;
+    int64_t dims[3] = {0, 0, 0};
+    if (!get_long(f, "ranks", &ranks) || !get_numbers(f, "decomposition", H5T_NATIVE_INT64, dims, 3) || ranks < 1 ||
+        dims[0] < 1 || dims[1] < 1 || dims[2] < 1 || dims[0] * dims[1] * dims[2] != ranks) {
+        return log_msg(log, STATUS_ERROR, CAT, "%s: the ranks and their decomposition are missing or out of range",
+                       path);
+    }
+    then->ranks = (int)ranks;
+    for (int a = 0; a < 3; a++) {
+        then->dims[a] = (int)dims[a];
+    }
+    char written[128], advice[128];
+    snprintf(written, sizeof written, "%d rank%s as [%d, %d, %d]", then->ranks, then->ranks > 1 ? "s" : "",
+             then->dims[0], then->dims[1], then->dims[2]);
+    if (then->ranks != now->ranks) {
+        if (then->ranks == 1) {
+            snprintf(advice, sizeof advice, "restart on one rank (without mpirun)");
+        } else {
+            snprintf(advice, sizeof advice, "restart with mpirun -np %d", then->ranks);
+        }
+        return log_msg(log, STATUS_ERROR, CAT, "%s was written by %s; this run has %d rank%s: %s", path, written,
+                       now->ranks, now->ranks > 1 ? "s" : "", advice);
+    }
+    if (then->dims[0] != now->dims[0] || then->dims[1] != now->dims[1] || then->dims[2] != now->dims[2]) {
+        return log_msg(log, STATUS_ERROR, CAT,
+                       "%s was written by %s; this run has %d ranks as [%d, %d, %d]: the blocks would not match; "
+                       "restart with the run.ranks of the interrupted run",
+                       path, written, now->ranks, now->dims[0], now->dims[1], now->dims[2]);
+    }
+    return STATUS_OK;
+}
+
+status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoint_origin_t *origin,
+                         const checkpoint_ranks_t *ranks, int rank, checkpoint_t *c, const log_t *log)
 {
     memset(c, 0, sizeof *c);
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
@@ -329,6 +392,9 @@ status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoin
     if (version != FORMAT_VERSION) {
         st = log_msg(log, STATUS_ERROR, CAT, "%s: checkpoint format version %ld; allowed: %d (this build)", path,
                      version, FORMAT_VERSION);
+        goto done;
+    }
+    if ((st = same_ranks(path, f, ranks, &c->ranks, log)) != STATUS_OK) {
         goto done;
     }
     text = get_string(f, "scene");
@@ -361,8 +427,10 @@ status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoin
         st = log_msg(log, STATUS_ERROR, CAT, "%s: the master's counters are missing or out of range", path);
         goto done;
     }
-    if (!get_array(f, "/fluid_state", H5T_NATIVE_UCHAR, 1, &fs, &c->fluid_size)) {
-        st = log_msg(log, STATUS_ERROR, CAT, "%s: /fluid_state is missing or unreadable", path);
+    char block[64];
+    snprintf(block, sizeof block, "/fluid_state/%d", rank);
+    if (!get_array(f, block, H5T_NATIVE_UCHAR, 1, &fs, &c->fluid_size)) {
+        st = log_msg(log, STATUS_ERROR, CAT, "%s: %s is missing or unreadable", path, block);
         goto done;
     }
     c->fluid_state = fs;

@@ -13,7 +13,16 @@
  * It is written to PATH.tmp, flushed, fsync'ed and renamed over PATH (then
  * the folder is fsync'ed): a valid checkpoint exists at every moment, even
  * when the run is killed while writing the next one. hdf5.h appears only
- * in the .c file. */
+ * in the .c file.
+ *
+ * On several MPI ranks there is still one file, written by rank 0: the
+ * master's counters, the rows and the rigid state (the same on every
+ * rank), the number of ranks and their blocks along x, y, z, and the fluid
+ * state of every rank (fmi2SerializeFMUstate of its block), which rank 0
+ * receives from the others one after another (the master's `block` hook),
+ * so that it holds its own block and one other at a time. The one rename
+ * makes the checkpoint of all ranks valid as a whole or not at all. A
+ * restart needs the same ranks and blocks; each rank reads its own block. */
 #ifndef COUPLER_CHECKPOINT_H
 #define COUPLER_CHECKPOINT_H
 
@@ -31,6 +40,12 @@ typedef struct {
     char rigid[CHECKPOINT_ID_MAX];      /* rigid FMU: GUID and library hash, "" without one */
 } checkpoint_origin_t;
 
+/* The ranks a checkpoint belongs to: their blocks must match on restart. */
+typedef struct {
+    int ranks;   /* MPI ranks (1 without MPI) */
+    int dims[3]; /* blocks along x, y, z (fluid/decomp.h) */
+} checkpoint_ranks_t;
+
 typedef struct {
     long step;            /* communication steps done */
     long nsteps;          /* the run's length in communication steps */
@@ -38,7 +53,9 @@ typedef struct {
     long next_out;        /* the next output row is due at next_out * run.output_interval */
     int exchange_every;   /* LBM steps per communication step */
     double h;             /* communication step, s */
-    unsigned char *fluid_state, *rigid_state; /* serialized FMU states (rigid: NULL without one) */
+    checkpoint_ranks_t ranks;
+    unsigned char *fluid_state, *rigid_state; /* serialized FMU states: this rank's fluid block, the rigid
+                                                 (NULL without one) */
     size_t fluid_size, rigid_size;
     double *settle_t, *settle_v; /* settling-summary history (may be NULL) */
     long nsettle;
@@ -51,17 +68,25 @@ void checkpoint_path(const char *output, char *buf, size_t n);
 /* A 64-bit FNV-1a hash of a file's bytes, as 16 hex digits. */
 status_t checkpoint_file_hash(const char *path, const log_t *log, char out[17]);
 
-/* Writes the checkpoint; fill (may be NULL) adds to the closed temporary
- * file before it is synced and renamed (the master copies the output rows). */
-typedef status_t (*checkpoint_fill_t)(void *ctx, const char *tmp_path);
-status_t checkpoint_write(const char *path, const scene_t *scene, const checkpoint_origin_t *origin,
-                          const checkpoint_t *c, checkpoint_fill_t fill, void *ctx, const log_t *log);
+/* What the master adds while rank 0 writes: block gives the fluid state of
+ * rank k = 1 .. ranks - 1 (c->fluid_state is rank 0's) and is called for
+ * every k in order, even after an error, because those ranks wait to send
+ * theirs; the bytes stay the master's. fill (may be NULL) adds to the closed
+ * temporary file before it is synced and renamed (the output rows). */
+typedef struct {
+    status_t (*block)(void *ctx, int rank, const unsigned char **bytes, size_t *size);
+    status_t (*fill)(void *ctx, const char *tmp_path);
+    void *ctx;
+} checkpoint_hooks_t;
 
-/* Reads path into *c (arrays malloc'ed: checkpoint_free) after checking that
- * it belongs to this scene and origin; a mismatch is an error saying what
- * differs. */
-status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoint_origin_t *origin, checkpoint_t *c,
-                         const log_t *log);
+status_t checkpoint_write(const char *path, const scene_t *scene, const checkpoint_origin_t *origin,
+                          const checkpoint_t *c, const checkpoint_hooks_t *hooks, const log_t *log);
+
+/* Reads path into *c (arrays malloc'ed: checkpoint_free), the fluid state
+ * of `rank`, after checking that it belongs to these ranks and blocks, this
+ * scene and this origin; a mismatch is an error saying what differs. */
+status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoint_origin_t *origin,
+                         const checkpoint_ranks_t *ranks, int rank, checkpoint_t *c, const log_t *log);
 void checkpoint_free(checkpoint_t *c);
 
 #endif

@@ -1,12 +1,19 @@
-/* mpi_env.c — MPI start and end for the coupler CLI (mpi_env.h). */
+/* mpi_env.c — MPI start and end for the coupler CLI, and the master's few
+ * collectives and messages (mpi_env.h). */
 #define _GNU_SOURCE /* sched_getaffinity, CPU_COUNT */
 #include "mpi_env.h"
 
 #include <mpi.h>
 #include <omp.h>
 #include <sched.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+
+#define CAT "mpi"
+/* Bytes per message: counts are int */
+#define PIECE ((size_t)1 << 30)
+#define TAG_BYTES 7
 
 static int started, rank, size = 1;
 
@@ -70,11 +77,66 @@ int mpi_env_finish(int rc)
     if (!started) {
         return rc;
     }
-    if (rc != 0 && size > 1) {
+    /* 130, 143: the master agreed on the stop over all ranks (run.c) */
+    if (rc != 0 && rc != 128 + 2 && rc != 128 + 15 && size > 1) {
         fflush(stdout);
         fflush(stderr);
         MPI_Abort(MPI_COMM_WORLD, rc);
     }
     MPI_Finalize();
     return rc;
+}
+
+static status_t failed(const log_t *log, const char *call)
+{
+    return log_msg(log, STATUS_FATAL, CAT, "rank %d of %d: %s failed", rank, size, call);
+}
+
+status_t mpi_env_max(int *v, const log_t *log)
+{
+    if (size == 1) {
+        return STATUS_OK;
+    }
+    return MPI_Allreduce(MPI_IN_PLACE, v, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD) == MPI_SUCCESS
+               ? STATUS_OK
+               : failed(log, "MPI_Allreduce");
+}
+
+/* sizes travel as MPI_UINT64_T straight into the caller's array */
+_Static_assert(sizeof(size_t) == sizeof(uint64_t), "size_t is not 64 bits");
+
+status_t mpi_env_gather_size(size_t n, size_t *all, const log_t *log)
+{
+    if (size == 1) {
+        all[0] = n;
+        return STATUS_OK;
+    }
+    const uint64_t mine = n;
+    return MPI_Gather(&mine, 1, MPI_UINT64_T, all, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD) == MPI_SUCCESS
+               ? STATUS_OK
+               : failed(log, "MPI_Gather");
+}
+
+status_t mpi_env_send(const void *buf, size_t n, int to, const log_t *log)
+{
+    const char *p = buf;
+    for (size_t done = 0; done < n; done += PIECE) {
+        const int count = (int)(n - done < PIECE ? n - done : PIECE);
+        if (MPI_Send(p + done, count, MPI_BYTE, to, TAG_BYTES, MPI_COMM_WORLD) != MPI_SUCCESS) {
+            return failed(log, "MPI_Send");
+        }
+    }
+    return STATUS_OK;
+}
+
+status_t mpi_env_recv(void *buf, size_t n, int from, const log_t *log)
+{
+    char *p = buf;
+    for (size_t done = 0; done < n; done += PIECE) {
+        const int count = (int)(n - done < PIECE ? n - done : PIECE);
+        if (MPI_Recv(p + done, count, MPI_BYTE, from, TAG_BYTES, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS) {
+            return failed(log, "MPI_Recv");
+        }
+    }
+    return STATUS_OK;
 }

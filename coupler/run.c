@@ -18,12 +18,18 @@
  *   fluid forces/torques -> rigid inputs; rigid fmi2DoStep(t, h)
  * (the rigid sub-cycles internally, rigid.substeps). Output rows at t >=
  * k * run.output_interval and at the end. Every FMI status is checked; an
- * error stops the run with the output file holding every row written. */
+ * error stops the run with the output file holding every row written.
+ * Under mpirun every rank runs this loop with its own FMUs (the fluid's
+ * block of the grid, the same rigid): they take every decision alike, agree
+ * once per communication step on a stop signal that some rank has seen, and
+ * write each checkpoint together (save_checkpoint: rank 0 writes the file
+ * with every rank's block, and all learn the outcome). */
 #define _XOPEN_SOURCE 700 /* nftw, mkdtemp */
 #include "run.h"
 #include "mpi_env.h"
 
 #include "../common/fmi_adapter.h"
+#include "../fluid/decomp.h"
 #include "../fluid/units.h"
 #include "checkpoint.h"
 #include "export.h"
@@ -34,6 +40,7 @@
 
 #include <errno.h>
 #include <ftw.h>
+#include <limits.h>
 #include <math.h>
 #include <omp.h>
 #include <signal.h>
@@ -83,6 +90,7 @@ typedef struct {
     long nsettle;
     /* checkpoints: what they belong to, where they go */
     checkpoint_origin_t origin;
+    checkpoint_ranks_t ranks; /* the MPI ranks and their blocks (fluid/decomp.h) */
     char cp_path[4200];
 } master_t;
 
@@ -592,37 +600,99 @@ typedef struct {
     double h, wall0, wall_before[3];
 } run_point_t;
 
-static status_t copy_rows(void *out, const char *tmp_path)
+/* The worst status of all ranks: every rank takes the same branch after it. */
+static status_t agree(master_t *m, status_t st)
 {
-    return output_save_rows(out, tmp_path, "/output");
+    int v = (int)st;
+    const status_t mst = mpi_env_max(&v, &m->log);
+    return status_worst((status_t)v, mst);
 }
 
+/* Rank 0's side of a checkpoint on several ranks (checkpoint_hooks_t): the
+ * other ranks' fluid blocks, received one after another into one buffer. */
+typedef struct {
+    master_t *m;
+    output_t *out;
+    const size_t *sizes; /* every rank's block, bytes */
+    unsigned char *buf;  /* as large as the largest of the other ranks */
+} blocks_t;
+
+static status_t receive_block(void *ctx, int rank, const unsigned char **bytes, size_t *size)
+{
+    blocks_t *b = ctx;
+    *bytes = b->buf;
+    *size = b->sizes[rank];
+    return mpi_env_recv(b->buf, b->sizes[rank], rank, &b->m->log);
+}
+
+static status_t copy_rows(void *ctx, const char *tmp_path)
+{
+    return output_save_rows(((blocks_t *)ctx)->out, tmp_path, "/output");
+}
+
+/* Every rank calls it at the same communication step (the steps are due
+ * alike and a stop is agreed, run_scene): each serializes its fluid block,
+ * rank 0 writes them all with the rest into the one file, and every rank
+ * returns the outcome of the whole. */
 static status_t save_checkpoint(master_t *m, output_t *out, const run_point_t *p)
 {
+    const int rank = mpi_env_rank(), size = mpi_env_size();
     checkpoint_t c;
     memset(&c, 0, sizeof c);
+    size_t *sizes = NULL;
+    blocks_t b = {m, out, NULL, NULL};
     status_t st = output_flush(out);
     if (st < STATUS_ERROR) {
         st = status_worst(st, serialize(m->fluid, &c.fluid_state, &c.fluid_size));
     }
-    if (st < STATUS_ERROR && m->rigid != NULL) {
+    /* the rigid state is the same on every rank: rank 0 writes its own */
+    if (st < STATUS_ERROR && m->rigid != NULL && rank == 0) {
         st = status_worst(st, serialize(m->rigid, &c.rigid_state, &c.rigid_size));
     }
-    if (st < STATUS_ERROR) {
+    if (size > 1) {
+        if (rank == 0 && (sizes = calloc((size_t)size, sizeof *sizes)) == NULL) {
+            /* the others wait for rank 0 until its MPI_Abort (mpi_env_finish) */
+            st = log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the block sizes of %d ranks", size);
+            goto cleanup;
+        }
+        st = status_worst(st, mpi_env_gather_size(c.fluid_size, sizes, &m->log));
+        size_t largest = 0;
+        for (int k = 1; rank == 0 && k < size; k++) {
+            largest = sizes[k] > largest ? sizes[k] : largest;
+        }
+        if (rank == 0 && st < STATUS_ERROR && (b.buf = malloc(largest > 0 ? largest : 1)) == NULL) {
+            st = log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for a fluid block of another rank (%zu bytes)",
+                         largest);
+        }
+        b.sizes = sizes;
+        /* all ranks send and receive, or none */
+        st = agree(m, st);
+    }
+    if (st < STATUS_ERROR && rank > 0) {
+        st = status_worst(st, mpi_env_send(c.fluid_state, c.fluid_size, 0, &m->log));
+    } else if (st < STATUS_ERROR) {
         c.step = p->n;
         c.nsteps = p->nsteps;
         c.rows = output_rows(out);
         c.next_out = p->next_out;
         c.exchange_every = p->k_lbm;
         c.h = p->h;
+        c.ranks = m->ranks;
         c.settle_t = m->settle_t;
         c.settle_v = m->settle_v;
         c.nsettle = m->nsettle;
         c.wall[0] = p->wall_before[0] + fmu_step_seconds(m->fluid);
         c.wall[1] = p->wall_before[1] + (m->rigid != NULL ? fmu_step_seconds(m->rigid) : 0.0);
         c.wall[2] = p->wall_before[2] + omp_get_wtime() - p->wall0;
-        st = status_worst(st, checkpoint_write(m->cp_path, m->scene, &m->origin, &c, copy_rows, out, &m->log));
+        const checkpoint_hooks_t hooks = {receive_block, copy_rows, &b};
+        st = status_worst(st, checkpoint_write(m->cp_path, m->scene, &m->origin, &c, &hooks, &m->log));
     }
+    if (size > 1) {
+        st = agree(m, st); /* every rank knows whether the checkpoint is there */
+    }
+cleanup:
+    free(b.buf);
+    free(sizes);
     free(c.fluid_state);
     free(c.rigid_state);
     return st;
@@ -702,12 +772,15 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     }
     /* under mpirun (mpi_env.h) every rank runs this master; rank 0 writes */
     const int writer = mpi_env_rank() == 0;
-    if (mpi_env_size() > 1 && (opt->checkpoint_every > 0.0 || opt->restart != NULL || opt->checkpoint_t1 > 0.0)) {
-        log_msg(log, STATUS_ERROR, CAT,
-                "%s: checkpoints (--checkpoint-every, --restart, --checkpoint-test) are not written on more than "
-                "one MPI rank yet (issue 13); run on one rank, or without them",
-                scene->path);
-        goto done;
+    /* the blocks of the ranks, as the fluid FMU cuts the grid (its own
+     * check of run.ranks says the same) */
+    m.ranks = (checkpoint_ranks_t){1, {1, 1, 1}};
+    if (mpi_env_size() > 1) {
+        decomp_t d;
+        if (decomp_layout(&d, scene, m.un.n, mpi_env_size(), mpi_env_rank(), log) != STATUS_OK) {
+            goto done;
+        }
+        m.ranks = (checkpoint_ranks_t){d.size, {d.dims[0], d.dims[1], d.dims[2]}};
     }
     m.ns = scene_total_spheres(scene);
     m.nfree_bodies = nfree_bodies(scene);
@@ -772,20 +845,30 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         goto done;
     }
     if (opt->restart != NULL) {
-        /* the checkpoint must belong to this scene, these FMUs and this build */
-        if (checkpoint_read(opt->restart, scene, &m.origin, &restart, log) != STATUS_OK) {
+        /* rank 0 checks that the checkpoint belongs to these ranks, this
+         * scene, these FMUs and this build, and says what differs; then the
+         * other ranks read their blocks */
+        status_t rst = STATUS_OK;
+        if (writer) {
+            rst = checkpoint_read(opt->restart, scene, &m.origin, &m.ranks, 0, &restart, log);
+            if (rst == STATUS_OK && (restart.exchange_every != k_lbm || restart.h != h)) {
+                rst = log_msg(log, STATUS_ERROR, CAT,
+                              "%s was written with --exchange-every %d (h = %.17g s); this run has --exchange-every "
+                              "%d (h = %.17g s): restart with the options of the interrupted run",
+                              opt->restart, restart.exchange_every, restart.h, k_lbm, h);
+            } else if (rst == STATUS_OK && restart.step > nsteps) {
+                rst = log_msg(log, STATUS_ERROR, CAT,
+                              "%s is at communication step %ld, after the end of this run (%ld steps)", opt->restart,
+                              restart.step, nsteps);
+            }
+        }
+        if (agree(&m, rst) >= STATUS_ERROR) {
             goto done;
         }
-        if (restart.exchange_every != k_lbm || restart.h != h) {
-            log_msg(log, STATUS_ERROR, CAT,
-                    "%s was written with --exchange-every %d (h = %.17g s); this run has --exchange-every %d (h = "
-                    "%.17g s): restart with the options of the interrupted run",
-                    opt->restart, restart.exchange_every, restart.h, k_lbm, h);
-            goto done;
+        if (!writer) {
+            rst = checkpoint_read(opt->restart, scene, &m.origin, &m.ranks, mpi_env_rank(), &restart, log);
         }
-        if (restart.step > nsteps) {
-            log_msg(log, STATUS_ERROR, CAT, "%s is at communication step %ld, after the end of this run (%ld steps)",
-                    opt->restart, restart.step, nsteps);
+        if (agree(&m, rst) >= STATUS_ERROR) {
             goto done;
         }
     }
@@ -815,9 +898,14 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         goto done;
     }
     if (opt->restart != NULL) {
-        if (deserialize(m.fluid, restart.fluid_state, restart.fluid_size) >= STATUS_ERROR ||
-            (m.rigid != NULL && deserialize(m.rigid, restart.rigid_state, restart.rigid_size) >= STATUS_ERROR)) {
+        status_t rst = deserialize(m.fluid, restart.fluid_state, restart.fluid_size);
+        if (rst < STATUS_ERROR && m.rigid != NULL) {
+            rst = status_worst(rst, deserialize(m.rigid, restart.rigid_state, restart.rigid_size));
+        }
+        if (rst >= STATUS_ERROR) {
             log_msg(log, STATUS_ERROR, CAT, "the FMU states of %s could not be restored (see above)", opt->restart);
+        }
+        if (agree(&m, rst) >= STATUS_ERROR) {
             goto done;
         }
         m.settle_t = restart.settle_t;
@@ -904,7 +992,13 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             continue;
         }
         const int cp_due = every > 0.0 && n > n0 && t >= next_cp * every - 1e-9 * dt;
-        if (!last && (cp_due || stop_signal != 0) && mpi_env_size() == 1) {
+        /* the signal reaches the ranks at different steps (mpirun forwards
+         * it): they stop together at the first step where one has seen it */
+        int stop = stop_signal;
+        if (!last && mpi_env_size() > 1 && mpi_env_max(&stop, log) != STATUS_OK) {
+            goto stopped;
+        }
+        if (!last && (cp_due || stop != 0)) {
             point.n = n;
             point.next_out = next_out;
             if (save_checkpoint(&m, out, &point) != STATUS_OK) {
@@ -914,12 +1008,16 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
                 next_cp++;
             }
         }
-        if (!last && stop_signal != 0) {
-            const int sig = stop_signal;
+        if (!last && stop != 0) {
+            const int sig = stop;
+            char launch[64] = "";
+            if (mpi_env_size() > 1) {
+                snprintf(launch, sizeof launch, "mpirun -np %d ", mpi_env_size());
+            }
             log_msg(log, STATUS_WARNING, CAT,
                     "stopped by %s at t = %.9g s (communication step %ld of %ld); %s holds the output rows to then; "
-                    "checkpoint %s: continue with `coupler run %s [the same --set options] --restart %s -o %s`",
-                    sig == SIGINT ? "SIGINT" : "SIGTERM", t, n, nsteps, opt->output, m.cp_path, scene->path,
+                    "checkpoint %s: continue with `%scoupler run %s [the same --set options] --restart %s -o %s`",
+                    sig == SIGINT ? "SIGINT" : "SIGTERM", t, n, nsteps, opt->output, m.cp_path, launch, scene->path,
                     m.cp_path, opt->output);
             rc = 128 + sig;
             goto done;
@@ -941,6 +1039,14 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     }
     if (tty) {
         fprintf(stderr, "\n");
+    }
+    if (cp.n1 >= 0 && mpi_env_size() > 1) {
+        /* the same verdict, and exit code, on every rank */
+        int differ = cp.mismatches > INT_MAX ? INT_MAX : (int)cp.mismatches;
+        if (mpi_env_max(&differ, log) != STATUS_OK) {
+            goto stopped;
+        }
+        cp.mismatches = differ;
     }
     /* wall times of the whole run, the interrupted parts before a restart included */
     const double wall = restart.wall[2] + omp_get_wtime() - wall0, wf = restart.wall[0] + fmu_step_seconds(m.fluid);
