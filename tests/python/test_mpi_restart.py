@@ -159,7 +159,7 @@ def test_run_cut_short_then_restarted_is_bit_identical(scenes, reference, cut_sh
     with h5py.File(ckpt, "r") as f:
         assert int(f.attrs["step"]) == 120
         assert int(f.attrs["ranks"]) == ranks
-        assert list(f.attrs["decomposition"]) == ([2, 1, 1] if ranks == 2 else [1, 1, 1])
+        assert list(f.attrs["decomposition"]) == ([1, 1, 2] if ranks == 2 else [1, 1, 1])
         blocks = [f[f"fluid_state/{k}"][()] for k in range(ranks)]
     if ranks == 2:
         assert not np.array_equal(blocks[0], blocks[1]), "the two blocks should differ (the sphere spans both)"
@@ -242,7 +242,7 @@ def test_restart_on_other_ranks_is_refused(scenes, cut_short, tmp_path, written,
     out = tmp_path / "x.h5"
     p = run(now, "run", scenes / "settle.yaml", "-o", out, "--quiet", "--restart", ckpt)
     assert p.returncode != 0
-    dims = "[2, 1, 1]" if written == 2 else "[1, 1, 1]"
+    dims = "[1, 1, 2]" if written == 2 else "[1, 1, 1]"
     what = f"{ckpt} was written by {written} rank{'s' if written > 1 else ''} as {dims}; this run has {now} rank"
     assert what in p.stderr, p.stderr[-3000:]
     assert ("restart with mpirun -np 2" if written == 2 else "restart on one rank (without mpirun)") in p.stderr
