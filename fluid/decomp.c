@@ -335,33 +335,25 @@ void decomp_sum(const decomp_t *d, xsum_t *s, int count)
     if (d->comm == NULL || count == 0) {
         return;
     }
-    int64_t *l = malloc((size_t)count * XSUM_LIMBS * sizeof *l);
-    double *big = malloc((size_t)count * sizeof *big);
-    if (l == NULL || big == NULL) {
-        /* cannot happen for the few values summed here; keep every rank in
-         * the collective with a stack copy of one value at a time */
-        free(l);
-        free(big);
-        for (int i = 0; i < count; i++) {
-            xsum_normalise(&s[i]);
-            MPI_Allreduce(MPI_IN_PLACE, s[i].l, XSUM_LIMBS, MPI_INT64_T, MPI_SUM, comm_of(d));
-            MPI_Allreduce(MPI_IN_PLACE, &s[i].big, 1, MPI_DOUBLE, MPI_SUM, comm_of(d));
+    /* in chunks through buffers on the stack: no allocation that could fail
+     * on one rank alone and leave the ranks in different collectives */
+    enum { CHUNK = 256 };
+    int64_t l[CHUNK * XSUM_LIMBS];
+    double big[CHUNK];
+    for (int c0 = 0; c0 < count; c0 += CHUNK) {
+        const int m = count - c0 < CHUNK ? count - c0 : CHUNK;
+        for (int i = 0; i < m; i++) {
+            xsum_normalise(&s[c0 + i]);
+            memcpy(l + (size_t)i * XSUM_LIMBS, s[c0 + i].l, sizeof s[0].l);
+            big[i] = s[c0 + i].big;
         }
-        return;
+        MPI_Allreduce(MPI_IN_PLACE, l, m * XSUM_LIMBS, MPI_INT64_T, MPI_SUM, comm_of(d));
+        MPI_Allreduce(MPI_IN_PLACE, big, m, MPI_DOUBLE, MPI_SUM, comm_of(d));
+        for (int i = 0; i < m; i++) {
+            memcpy(s[c0 + i].l, l + (size_t)i * XSUM_LIMBS, sizeof s[0].l);
+            s[c0 + i].big = big[i];
+        }
     }
-    for (int i = 0; i < count; i++) {
-        xsum_normalise(&s[i]);
-        memcpy(l + (size_t)i * XSUM_LIMBS, s[i].l, sizeof s[i].l);
-        big[i] = s[i].big;
-    }
-    MPI_Allreduce(MPI_IN_PLACE, l, count * XSUM_LIMBS, MPI_INT64_T, MPI_SUM, comm_of(d));
-    MPI_Allreduce(MPI_IN_PLACE, big, count, MPI_DOUBLE, MPI_SUM, comm_of(d));
-    for (int i = 0; i < count; i++) {
-        memcpy(s[i].l, l + (size_t)i * XSUM_LIMBS, sizeof s[i].l);
-        s[i].big = big[i];
-    }
-    free(l);
-    free(big);
 }
 
 void decomp_max(const decomp_t *d, double *v, int count)
