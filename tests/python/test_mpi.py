@@ -9,7 +9,6 @@ rank writes its block with parallel HDF5). A wrong halo exchange (a missing
 edge, a direction on the wrong side, a face of the domain treated as a rank
 face or the reverse) changes the flow within a few steps and fails these.
 """
-import os
 import shutil
 import subprocess
 
@@ -18,27 +17,14 @@ import numpy as np
 import pytest
 
 from conftest import COUPLER, ROOT
+from mpi_util import MPIRUN, SETTLE, datasets, env1
 
-MPIRUN = shutil.which("mpirun")
 pytestmark = pytest.mark.skipif(MPIRUN is None, reason="mpirun (openmpi-bin) is not installed")
 
 
 def mpirun(np_, *args, env=None):
     cmd = [MPIRUN, "--allow-run-as-root", "--oversubscribe", "-np", str(np_), "-x", "OMP_NUM_THREADS"]
     return subprocess.run(cmd + [str(COUPLER)] + list(args), capture_output=True, text=True, env=env, timeout=600)
-
-
-def env1():
-    e = dict(os.environ)
-    e["OMP_NUM_THREADS"] = "1"  # 4 ranks on 2 cores: spinning OpenMP barriers would crawl
-    return e
-
-
-def datasets(path):
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda n, o: out.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
-    return out
 
 
 def run_ranks(tmp_path, scene_text, name, ranks=(1, 2, 4), sets=()):
@@ -161,35 +147,6 @@ def test_bad_rank_counts_are_refused(tmp_path):
     assert "5 cells along z over 2 ranks leaves blocks of fewer than 4 cells" in r.stderr
 
 
-SETTLE = """
-domain:
-  size: [2.4e-4, 2.4e-4, 3.2e-4]
-  faces:
-    x_min: {type: no_slip}
-    x_max: {type: no_slip}
-    y_min: {type: free_slip}
-    y_max: {type: free_slip}
-    z_min: {type: no_slip}
-    z_max: {type: no_slip}
-fluid:
-  density: 1000.0
-  viscosity: 1.0e-6
-  dx: 1.0e-5
-  tau: 1.0
-  streaming: {streaming}
-bodies:
-  - name: sphere
-    density: 2000.0
-    spheres:
-      - {center: [1.23e-4, 1.17e-4, 2.0e-4], radius: 4.5e-5}
-rigid:
-  gravity: [0, 0, -9.81]
-run:
-  end_time: 0.004
-  output_interval: 2.0e-4
-  fields: true
-  field_interval: 0.002
-"""
 
 
 @pytest.mark.parametrize("ranks", ["[2, 1, 1]", "[2, 2, 1]", "[1, 1, 4]", "[4, 1, 1]"])
@@ -202,7 +159,7 @@ def test_sphere_settles_across_rank_boundaries(tmp_path, ranks):
     the rigid component runs on every rank. Time series and fields must equal
     the single-rank run bit for bit."""
     n = eval(ranks)[0] * eval(ranks)[1] * eval(ranks)[2]
-    outs = run_ranks(tmp_path, SETTLE.replace("{streaming}", "in_place"), "settle", ranks=(1, n),
+    outs = run_ranks(tmp_path, SETTLE, "settle", ranks=(1, n),
                      sets=[f"run.ranks={ranks}"])
     assert_identical(outs)
     vel = datasets(outs[0])["spheres/velocity"]
@@ -210,7 +167,7 @@ def test_sphere_settles_across_rank_boundaries(tmp_path, ranks):
 
 
 def test_sphere_two_arrays_across_ranks(tmp_path):
-    assert_identical(run_ranks(tmp_path, SETTLE.replace("{streaming}", "two_array"), "settle2", ranks=(1, 2)))
+    assert_identical(run_ranks(tmp_path, SETTLE.replace("streaming: in_place", "streaming: two_array"), "settle2", ranks=(1, 2)))
 
 
 CROSS = """

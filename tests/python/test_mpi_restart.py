@@ -9,7 +9,7 @@ run that was never interrupted. A stop signal seen by one rank stops all of
 them at the same communication step. A restart on another number of ranks
 is refused with both numbers.
 
-The scene is test_mpi.py's settling sphere, whose surface lies across the
+The scene is the settling sphere of mpi_util.py, whose surface lies across the
 cut between the two ranks' blocks (x = 12 cells), so that both blocks hold
 sphere cells and their states differ.
 """
@@ -24,48 +24,14 @@ import numpy as np
 import pytest
 
 from conftest import COUPLER
+from mpi_util import MPIRUN, SETTLE, datasets, env1
 
-MPIRUN = shutil.which("mpirun")
 pytestmark = pytest.mark.skipif(MPIRUN is None, reason="mpirun (openmpi-bin) is not installed")
 
-SETTLE = """
-domain:
-  size: [2.4e-4, 2.4e-4, 3.2e-4]
-  faces:
-    x_min: {type: no_slip}
-    x_max: {type: no_slip}
-    y_min: {type: free_slip}
-    y_max: {type: free_slip}
-    z_min: {type: no_slip}
-    z_max: {type: no_slip}
-fluid:
-  density: 1000.0
-  viscosity: 1.0e-6
-  dx: 1.0e-5
-  tau: 1.0
-bodies:
-  - name: sphere
-    density: 2000.0
-    spheres:
-      - {center: [1.23e-4, 1.17e-4, 2.0e-4], radius: 4.5e-5}
-rigid:
-  gravity: [0, 0, -9.81]
-run:
-  end_time: 0.004
-  output_interval: 2.0e-4
-  fields: true
-  field_interval: 0.002
-"""
 # 240 communication steps of 1/60000 s; a checkpoint every 60
 EVERY = "0.001"
 # 3600 steps (a few seconds on 2 ranks): long enough to be stopped by a signal
 LONG = SETTLE.replace("end_time: 0.004", "end_time: 0.06").replace("field_interval: 0.002", "field_interval: 0.01")
-
-
-def env1(**extra):
-    e = dict(os.environ, OMP_NUM_THREADS="1")  # 2 ranks on 2 cores
-    e.update(extra)
-    return e
 
 
 def command(ranks, *args):
@@ -90,13 +56,6 @@ def wait_for(path, proc, timeout=300):
         assert proc.poll() is None, "the run ended before writing a checkpoint: " + proc.stderr.read()
         assert time.time() - t0 < timeout, f"no {path} after {timeout} s"
         time.sleep(0.02)
-
-
-def datasets(path):
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda n, o: out.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
-    return out
 
 
 def fields_of(out):

@@ -1,0 +1,56 @@
+"""What the MPI tests share (test_mpi.py, test_mpi_restart.py): mpirun, the
+environment of their runs, reading every dataset of a result file, and the
+settling-sphere scene whose surface lies across the cuts of 2 and 4 ranks."""
+import os
+import shutil
+
+import h5py
+
+MPIRUN = shutil.which("mpirun")
+
+
+def env1(**extra):
+    """One OpenMP thread per rank: 4 ranks on 2 cores with spinning barriers would crawl."""
+    e = dict(os.environ, OMP_NUM_THREADS="1")
+    e.update(extra)
+    return e
+
+
+def datasets(path):
+    out = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda n, o: out.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
+    return out
+
+
+# A free sphere (radius 4.5 cells, density ratio 2) settling from rest in a
+# 24 x 24 x 32 box, its surface across x = 12 and z = 16 and 24.
+SETTLE = """
+domain:
+  size: [2.4e-4, 2.4e-4, 3.2e-4]
+  faces:
+    x_min: {type: no_slip}
+    x_max: {type: no_slip}
+    y_min: {type: free_slip}
+    y_max: {type: free_slip}
+    z_min: {type: no_slip}
+    z_max: {type: no_slip}
+fluid:
+  density: 1000.0
+  viscosity: 1.0e-6
+  dx: 1.0e-5
+  tau: 1.0
+  streaming: in_place
+bodies:
+  - name: sphere
+    density: 2000.0
+    spheres:
+      - {center: [1.23e-4, 1.17e-4, 2.0e-4], radius: 4.5e-5}
+rigid:
+  gravity: [0, 0, -9.81]
+run:
+  end_time: 0.004
+  output_interval: 2.0e-4
+  fields: true
+  field_interval: 0.002
+"""
