@@ -3,8 +3,11 @@ environment of their runs, reading every dataset of a result file, and the
 settling-sphere scene whose surface lies across the cuts of 2 and 4 ranks."""
 import os
 import shutil
+import subprocess
 
 import h5py
+
+from conftest import COUPLER
 
 MPIRUN = shutil.which("mpirun")
 
@@ -14,6 +17,21 @@ def env1(**extra):
     e = dict(os.environ, OMP_NUM_THREADS="1")
     e.update(extra)
     return e
+
+
+def coupler_command(ranks, *args):
+    """build/coupler with args, under mpirun on more than one rank (as root, more ranks than
+    cores, OMP_NUM_THREADS passed on)."""
+    if ranks == 1:
+        return [str(COUPLER), *map(str, args)]
+    return [MPIRUN, "--allow-run-as-root", "--oversubscribe", "-np", str(ranks), "-x", "OMP_NUM_THREADS",
+            str(COUPLER), *map(str, args)]
+
+
+def run_coupler(ranks, *args, timeout=600):
+    """coupler_command run to its end with one thread per rank; the CompletedProcess (text)."""
+    return subprocess.run(coupler_command(ranks, *args), capture_output=True, text=True, env=env1(),
+                          timeout=timeout)
 
 
 def datasets(path):

@@ -16,15 +16,10 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import COUPLER, ROOT
-from mpi_util import MPIRUN, SETTLE, datasets, env1
+from conftest import ROOT
+from mpi_util import MPIRUN, SETTLE, datasets, run_coupler
 
 pytestmark = pytest.mark.skipif(MPIRUN is None, reason="mpirun (openmpi-bin) is not installed")
-
-
-def mpirun(np_, *args, env=None):
-    cmd = [MPIRUN, "--allow-run-as-root", "--oversubscribe", "-np", str(np_), "-x", "OMP_NUM_THREADS"]
-    return subprocess.run(cmd + [str(COUPLER)] + list(args), capture_output=True, text=True, env=env, timeout=600)
 
 
 def run_ranks(tmp_path, scene_text, name, ranks=(1, 2, 4), sets=()):
@@ -36,10 +31,7 @@ def run_ranks(tmp_path, scene_text, name, ranks=(1, 2, 4), sets=()):
         args = ["run", str(scene), "-o", str(out), "--quiet"]
         for s in sets:
             args += ["--set", s]
-        if np_ == 1:
-            r = subprocess.run([str(COUPLER)] + args, capture_output=True, text=True, env=env1(), timeout=600)
-        else:
-            r = mpirun(np_, *args, env=env1())
+        r = run_coupler(np_, *args)
         assert r.returncode == 0, f"{np_} ranks: {r.stderr[-3000:]}"
         with h5py.File(out, "r") as f:
             assert f.attrs["ranks"] == np_
@@ -137,12 +129,11 @@ def test_bad_rank_counts_are_refused(tmp_path):
     thinner than 4 cells, stop with the key and the numbers."""
     scene = tmp_path / "bad.yaml"
     scene.write_text(box(PERIODIC_X, end=0.01))
-    r = mpirun(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 4]",
-               env=env1())
+    r = run_coupler(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 4]")
     assert r.returncode != 0
     assert "run.ranks [1, 1, 4] makes 4 blocks, but there are 2 MPI ranks" in r.stderr
-    r = mpirun(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 2]",
-               "--set", "domain.size=[1.6e-3, 1.2e-3, 5.0e-4]", env=env1())
+    r = run_coupler(2, "run", str(scene), "-o", str(tmp_path / "bad.h5"), "--quiet", "--set", "run.ranks=[1, 1, 2]",
+                    "--set", "domain.size=[1.6e-3, 1.2e-3, 5.0e-4]")
     assert r.returncode != 0
     assert "5 cells along z over 2 ranks leaves blocks of fewer than 4 cells" in r.stderr
 

@@ -19,16 +19,12 @@ MPI_Dims_create's choice for 4 ranks is (2, 2, 1) (the MPI standard: as
 balanced as possible, non-increasing), given to the axes z, y, x in that
 order (fluid/decomp.c: the fewest ranks along x): [1, 2, 2].
 """
-import os
 import re
-import shutil
-import subprocess
 
 import pytest
 
-from conftest import COUPLER, run
-
-MPIRUN = shutil.which("mpirun")
+from conftest import run
+from mpi_util import MPIRUN, run_coupler
 
 SCENE = """
 domain:
@@ -272,16 +268,10 @@ def test_grid_too_small_to_cut(coupler, tmp_path):
     assert "has no axis of 8 cells or more to cut over 2 ranks" in p.stderr
 
 
-def mpirun(np_, *args):
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    cmd = [MPIRUN, "--allow-run-as-root", "--oversubscribe", "-np", str(np_), "-x", "OMP_NUM_THREADS", str(COUPLER)]
-    return subprocess.run(cmd + [str(a) for a in args], capture_output=True, text=True, env=env, timeout=120)
-
-
 @pytest.mark.skipif(MPIRUN is None, reason="mpirun (openmpi-bin) is not installed")
 def test_under_mpirun_the_world_is_reported_once(coupler, tmp_path):
     scene = write_scene(tmp_path)
-    p = mpirun(2, "check", scene)
+    p = run_coupler(2, "check", scene, timeout=120)
     assert p.returncode == 0, p.stderr
     assert p.stdout.count("MPI ranks") == 1 and p.stdout.count(str(scene)) == 1, p.stdout
     world, dims, source, rows, total = report(p.stdout)
@@ -289,7 +279,7 @@ def test_under_mpirun_the_world_is_reported_once(coupler, tmp_path):
     want = expected((64, 32, 16), dims, (1, 0, 0))
     assert_rows(rows, want)
     # --ranks wins over the world size
-    p = mpirun(2, "check", scene, "--ranks", "4")
+    p = run_coupler(2, "check", scene, "--ranks", "4", timeout=120)
     assert p.returncode == 0, p.stderr
     assert p.stdout.count("MPI ranks") == 1
     assert report(p.stdout)[0] == 4

@@ -14,7 +14,6 @@ cut between the two ranks' blocks (x = 12 cells), so that both blocks hold
 sphere cells and their states differ.
 """
 import os
-import shutil
 import signal
 import subprocess
 import time
@@ -23,8 +22,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import COUPLER
-from mpi_util import MPIRUN, SETTLE, datasets, env1
+from mpi_util import MPIRUN, SETTLE, coupler_command, datasets, env1, run_coupler
 
 pytestmark = pytest.mark.skipif(MPIRUN is None, reason="mpirun (openmpi-bin) is not installed")
 
@@ -34,19 +32,11 @@ EVERY = "0.001"
 LONG = SETTLE.replace("end_time: 0.004", "end_time: 0.06").replace("field_interval: 0.002", "field_interval: 0.01")
 
 
-def command(ranks, *args):
-    if ranks == 1:
-        return [str(COUPLER), *map(str, args)]
-    return [MPIRUN, "--allow-run-as-root", "--oversubscribe", "-np", str(ranks), "-x", "OMP_NUM_THREADS",
-            str(COUPLER), *map(str, args)]
-
-
-def run(ranks, *args):
-    return subprocess.run(command(ranks, *args), capture_output=True, text=True, env=env1(), timeout=600)
+run = run_coupler
 
 
 def start(ranks, *args, env=None):
-    return subprocess.Popen(command(ranks, *args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    return subprocess.Popen(coupler_command(ranks, *args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=env if env is not None else env1())
 
 
