@@ -18,6 +18,29 @@ static void split(int n, int p, int c, int *lo, int *len)
     *lo = c * base + (c < extra ? c : extra);
 }
 
+void decomp_exchange_range(const decomp_t *d, const int n[3], int a, int lo[3], int hi[3])
+{
+    for (int b = 0; b < 3; b++) {
+        /* the axes before a (x before y before z) with their ghost cells:
+         * done before a (pull), or still to come after a (push) */
+        const int with_ghosts = b < a;
+        lo[b] = with_ghosts ? 0 : 1;
+        hi[b] = with_ghosts ? n[b] + 1 : n[b];
+        if (!(d->periodic[a] && d->dims[a] == 1)) {
+            /* an exchange with another rank (not the local periodic copy):
+             * the ghost rows of the domain walls along the face too: after
+             * the push kernel, a free-slip link beside the cut reads what the
+             * neighbour's cell pushed into its wall ghost (on one rank the
+             * same slot is in this grid) */
+            const int local_periodic = d->periodic[b] && d->dims[b] == 1;
+            if (b != a && !local_periodic) {
+                lo[b] = d->nbr[b][0] >= 0 ? lo[b] : 0;
+                hi[b] = d->nbr[b][1] >= 0 ? hi[b] : n[b] + 1;
+            }
+        }
+    }
+}
+
 void decomp_block(const decomp_t *d, const int coords[3], int lo[3], int n[3])
 {
     for (int a = 0; a < 3; a++) {
@@ -131,21 +154,14 @@ status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world,
             d->nbr[a][side] = dims[a] == 1 ? -1 : rank_at(d, c);
         }
     }
-    /* bytes sent per step: 5 populations per face cell, over the ranges of
-     * walls.c periodic_fill: the ghost rows of the axes before a, and of
-     * the domain's wall faces */
+    /* bytes sent per step: 5 populations per face cell, over the ranges the
+     * exchange copies (decomp_exchange_range) */
     for (int a = 0; a < 3; a++) {
+        int lo[3], hi[3];
+        decomp_exchange_range(d, d->n, a, lo, hi);
         double cells = 1.0;
         for (int b = 0; b < 3; b++) {
-            if (b == a) {
-                continue;
-            }
-            int len = d->n[b];
-            for (int side = 0; side < 2; side++) {
-                const int wall = d->nbr[b][side] < 0 && !(d->periodic[b] && dims[b] == 1);
-                len += b < a || wall ? 1 : 0;
-            }
-            cells *= len;
+            cells *= b == a ? 1.0 : (double)(hi[b] - lo[b] + 1);
         }
         for (int side = 0; side < 2; side++) {
             if (d->nbr[a][side] >= 0) {

@@ -56,6 +56,12 @@ void decomp_free(decomp_t *d);
  * decomp_init sets up (for `coupler check --ranks N`). With world > 1 MPI
  * must be initialised (MPI_Dims_create). */
 status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world, int rank, const log_t *log);
+/* The cells over which the ghost layers of axis a are copied, for a grid of
+ * n interior cells (allocated coordinates): the ghost rows of the axes done
+ * before a, and, for an exchange with other ranks, of the domain's walls
+ * too (walls.c
+ * periodic_fill, decomp_exchange_axis, the halo bytes of decomp_layout). */
+void decomp_exchange_range(const decomp_t *d, const int n[3], int a, int lo[3], int hi[3]);
 /* The block of the rank at coords: global first cell and cells. */
 void decomp_block(const decomp_t *d, const int coords[3], int lo[3], int n[3]);
 /* The rank at coords (wrapped on periodic axes), -1 beyond a domain face. */

@@ -285,27 +285,11 @@ static status_t periodic_fill(const walls_t *w, const grid_t *g, const pops_t *p
             continue;
         }
         int lo[3], hi[3];
-        for (int b = 0; b < 3; b++) {
-            /* the axes before a (x before y before z) with their ghost
-             * cells: done before a (pull), or still to come after a (push) */
-            const int with_ghosts = b < a;
-            lo[b] = with_ghosts ? 0 : 1;
-            hi[b] = with_ghosts ? g->n[b] + 1 : g->n[b];
-        }
+        decomp_exchange_range(w->d, g->n, a, lo, hi);
         if (w->periodic[a]) {
             periodic_axis(g, p, a, lo, hi);
         } else {
-            /* the same copy with the other side on another rank, and the
-             * ghost rows of the domain walls along the face too: after the
-             * push kernel, a free-slip link beside the cut reads what the
-             * neighbour's cell pushed into its wall ghost (on one rank the
-             * same slot is in this grid) */
-            for (int b = 0; b < 3; b++) {
-                if (b != a && !w->periodic[b]) {
-                    lo[b] = decomp_exchanged(w->d, b, 0) ? lo[b] : 0;
-                    hi[b] = decomp_exchanged(w->d, b, 1) ? hi[b] : g->n[b] + 1;
-                }
-            }
+            /* the same copy with the other side on another rank */
             st = status_worst(st, decomp_exchange_axis(w->d, g, p, a, lo, hi, log));
         }
     }
