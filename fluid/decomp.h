@@ -59,8 +59,8 @@ status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world,
 /* The cells over which the ghost layers of axis a are copied, for a grid of
  * n interior cells (allocated coordinates): the ghost rows of the axes done
  * before a, and, for an exchange with other ranks, of the domain's walls
- * too (walls.c
- * periodic_fill, decomp_exchange_axis, the halo bytes of decomp_layout). */
+ * too (walls.c periodic_fill, decomp_exchange_axis, the halo bytes of
+ * decomp_layout). */
 void decomp_exchange_range(const decomp_t *d, const int n[3], int a, int lo[3], int hi[3]);
 /* The block of the rank at coords: global first cell and cells. */
 void decomp_block(const decomp_t *d, const int coords[3], int lo[3], int n[3]);
