@@ -791,13 +791,15 @@ void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *f, const pops_t 
     }
     /* every rank's part of each load (the links of its cells, the cells it
      * covered and uncovered), summed exactly: all ranks get the same load */
-    xsum_t *acc = sp->accbuf;
-    for (int k = 0; k < sp->n; k++) {
-        memcpy(acc + (size_t)k * 8, sp->s[k].acc, sizeof sp->s[k].acc);
+    const int parallel = decomp_parallel(sp->dc);
+    if (parallel) {
+        for (int k = 0; k < sp->n; k++) {
+            memcpy(sp->accbuf + (size_t)k * 8, sp->s[k].acc, sizeof sp->s[k].acc);
+        }
+        decomp_sum(sp->dc, sp->accbuf, 8 * sp->n);
     }
-    decomp_sum(sp->dc, acc, 8 * sp->n);
     for (int k = 0; k < sp->n; k++) {
-        const xsum_t *a = acc + (size_t)k * 8;
+        const xsum_t *a = parallel ? sp->accbuf + (size_t)k * 8 : sp->s[k].acc;
         sphere_t *p = &sp->s[k];
         for (int c = 0; c < 3; c++) {
             p->f[c] = xsum_value(&a[c]);
