@@ -51,7 +51,7 @@ void decomp_block(const decomp_t *d, const int coords[3], int lo[3], int n[3])
 /* The rank of the block at coords (wrapped on periodic axes), or -1 beyond a
  * face of the domain: row-major, z fastest, as MPI_Cart_create numbers the
  * ranks without reordering. */
-static int rank_at(const decomp_t *d, const int coords[3])
+int decomp_rank_at(const decomp_t *d, const int coords[3])
 {
     int r = 0;
     for (int a = 0; a < 3; a++) {
@@ -66,8 +66,6 @@ static int rank_at(const decomp_t *d, const int coords[3])
     }
     return r;
 }
-
-int decomp_rank_at(const decomp_t *d, const int coords[3]) { return rank_at(d, coords); }
 
 status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world, int rank, const log_t *log)
 {
@@ -151,7 +149,7 @@ status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world,
         for (int side = 0; side < 2; side++) {
             int c[3] = {d->coords[0], d->coords[1], d->coords[2]};
             c[a] += side == 0 ? -1 : 1;
-            d->nbr[a][side] = dims[a] == 1 ? -1 : rank_at(d, c);
+            d->nbr[a][side] = dims[a] == 1 ? -1 : decomp_rank_at(d, c);
         }
     }
     /* bytes sent per step: 5 populations per face cell, over the ranges the

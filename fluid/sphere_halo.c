@@ -116,12 +116,12 @@ static void wrapped(const spheres_t *sp, const int X[3], long G[3])
 
 /* Cells of a list: (key, value) pairs sorted by key and without repeats. */
 typedef struct {
-    long (*key)[5]; /* owner direction, z, y, x, value (grid index or -1) */
+    long (*key)[5]; /* owner direction, z, y, x, position in Y (for the sort) */
     int (*Y)[3];
     size_t n, cap;
 } cells_t;
 
-static int cells_add(cells_t *c, long dir, const long G[3], long value, const int Y[3])
+static int cells_add(cells_t *c, long dir, const long G[3], const int Y[3])
 {
     if (c->n == c->cap) {
         const size_t nc = c->cap ? 2 * c->cap : 256;
@@ -143,7 +143,6 @@ static int cells_add(cells_t *c, long dir, const long G[3], long value, const in
     c->key[c->n][3] = G[0];
     c->key[c->n][4] = (long)c->n; /* position, to carry Y through the sort */
     memcpy(c->Y[c->n], Y, sizeof c->Y[0]);
-    (void)value;
     c->n++;
     return 1;
 }
@@ -219,7 +218,7 @@ static int add_recv(void *v, const int X[3])
                       Y[2] < 1 ? -1 : Y[2] > sp->nb[2]};
     long G[3];
     wrapped(sp, X, G);
-    return cells_add(c->cells, dir_index(d), G, -1, Y);
+    return cells_add(c->cells, dir_index(d), G, Y);
 }
 
 static int add_send(void *v, const int X[3])
@@ -237,7 +236,7 @@ static int add_send(void *v, const int X[3])
     }
     long G[3];
     wrapped(sp, X, G);
-    return cells_add(c->cells, 0, G, -1, Y);
+    return cells_add(c->cells, 0, G, Y);
 }
 
 /* The solid cells of one sphere as mark_sphere finds them. */
