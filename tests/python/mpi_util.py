@@ -1,11 +1,9 @@
-"""What the MPI tests share (test_mpi.py, test_mpi_restart.py): mpirun, the
-environment of their runs, reading every dataset of a result file, and the
-settling-sphere scene whose surface lies across the cuts of 2 and 4 ranks."""
+"""What the MPI tests share (test_mpi.py, test_mpi_restart.py, test_mpi_check.py):
+mpirun, the environment of their runs, and the settling-sphere scene whose
+surface lies across the cuts of 2 and 4 ranks."""
 import os
 import shutil
 import subprocess
-
-import h5py
 
 from conftest import COUPLER
 
@@ -32,13 +30,6 @@ def run_coupler(ranks, *args, timeout=600):
     """coupler_command run to its end with one thread per rank; the CompletedProcess (text)."""
     return subprocess.run(coupler_command(ranks, *args), capture_output=True, text=True, env=env1(),
                           timeout=timeout)
-
-
-def datasets(path):
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda n, o: out.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
-    return out
 
 
 # A free sphere (radius 4.5 cells, density ratio 2) settling from rest in a

@@ -16,8 +16,8 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import ROOT
-from mpi_util import MPIRUN, SETTLE, datasets, run_coupler
+from conftest import ROOT, datasets
+from mpi_util import MPIRUN, SETTLE, run_coupler
 
 pytestmark = pytest.mark.skipif(MPIRUN is None, reason="mpirun (openmpi-bin) is not installed")
 

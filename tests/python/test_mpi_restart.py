@@ -22,7 +22,8 @@ import h5py
 import numpy as np
 import pytest
 
-from mpi_util import MPIRUN, SETTLE, coupler_command, datasets, env1, run_coupler
+from conftest import datasets, wait_for
+from mpi_util import MPIRUN, SETTLE, coupler_command, env1, run_coupler
 
 pytestmark = pytest.mark.skipif(MPIRUN is None, reason="mpirun (openmpi-bin) is not installed")
 
@@ -38,14 +39,6 @@ run = run_coupler
 def start(ranks, *args, env=None):
     return subprocess.Popen(coupler_command(ranks, *args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=env if env is not None else env1())
-
-
-def wait_for(path, proc, timeout=300):
-    t0 = time.time()
-    while not path.exists():
-        assert proc.poll() is None, "the run ended before writing a checkpoint: " + proc.stderr.read()
-        assert time.time() - t0 < timeout, f"no {path} after {timeout} s"
-        time.sleep(0.02)
 
 
 def fields_of(out):

@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import COUPLER, MODELS, run
+from conftest import COUPLER, MODELS, datasets, run, wait_for
 
 SCENE = MODELS / "sinking_sphere.yaml"
 STEPS = "700"
@@ -27,24 +27,6 @@ def start(*args):
     env = dict(os.environ, OMP_NUM_THREADS="2")
     return subprocess.Popen([str(COUPLER), *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, env=env)
-
-
-def wait_for(path, proc, timeout=300):
-    t0 = time.time()
-    while not path.exists():
-        assert proc.poll() is None, "the run ended before writing a checkpoint: " + proc.stderr.read()
-        assert time.time() - t0 < timeout, f"no {path} after {timeout} s"
-        time.sleep(0.02)
-
-
-def datasets(path):
-    out = {}
-    with h5py.File(path, "r") as f:
-        def visit(name, obj):
-            if isinstance(obj, h5py.Dataset):
-                out[name] = obj[()]
-        f.visititems(visit)
-    return out
 
 
 def assert_identical(a, b):
