@@ -16,7 +16,6 @@ sphere cells and their states differ.
 import os
 import signal
 import subprocess
-import time
 
 import h5py
 import numpy as np
