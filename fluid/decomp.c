@@ -154,16 +154,19 @@ status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world,
     }
     /* bytes sent per step: 5 populations per face cell, over the ranges the
      * exchange copies (decomp_exchange_range) */
+    const size_t es = s->fluid.precision == PRECISION_SINGLE ? 4 : 8;
+    d->xbytes_max = 0;
     for (int a = 0; a < 3; a++) {
         int lo[3], hi[3];
         decomp_exchange_range(d, d->n, a, lo, hi);
-        double cells = 1.0;
+        size_t cells = 1;
         for (int b = 0; b < 3; b++) {
-            cells *= b == a ? 1.0 : (double)(hi[b] - lo[b] + 1);
+            cells *= b == a ? 1 : (size_t)(hi[b] - lo[b] + 1);
         }
         for (int side = 0; side < 2; side++) {
             if (d->nbr[a][side] >= 0) {
-                d->halo_bytes += 5.0 * cells * (s->fluid.precision == PRECISION_SINGLE ? 4.0 : 8.0);
+                d->halo_bytes += 5.0 * (double)cells * (double)es;
+                d->xbytes_max = d->xbytes_max > 5 * cells * es ? d->xbytes_max : 5 * cells * es;
             }
         }
     }
@@ -184,8 +187,15 @@ status_t decomp_init(decomp_t *d, const scene_t *s, const int N[3], const log_t 
         return st;
     }
     MPI_Comm *cart = malloc(sizeof *cart);
-    if (cart == NULL) {
-        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the communicator");
+    /* the buffers of the largest axis now: an exchange that failed for
+     * memory on one rank would leave its neighbours waiting */
+    d->cap = 4 * d->xbytes_max;
+    d->buf = malloc(d->cap > 0 ? d->cap : 1);
+    d->req = malloc(4 * sizeof(MPI_Request));
+    if (cart == NULL || d->buf == NULL || d->req == NULL) {
+        free(cart);
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the communicator and the halo buffers (%zu bytes)",
+                       d->cap);
     }
     /* no reordering: world rank 0 (which writes the outputs) keeps block 0,
      * and the ranks are row-major as decomp_layout numbers them */
@@ -214,8 +224,10 @@ void decomp_free(decomp_t *d)
         free(d->comm);
     }
     free(d->buf);
+    free(d->req);
     d->comm = NULL;
     d->buf = NULL;
+    d->req = NULL;
 }
 
 /* The directions of axis a with component dir, in q order. */
@@ -280,31 +292,26 @@ static void layer_copy(const grid_t *g, const pops_t *p, int a, int layer, const
  * leaving my block in my ghost layers; they go to the neighbours' outer
  * interior layers. The message to the upper neighbour carries the 5
  * directions with c_a = +1, to the lower one those with c_a = -1. */
-status_t decomp_exchange_axis(decomp_t *d, const grid_t *g, const pops_t *p, int a, const int lo[3], const int hi[3],
-                              const log_t *log)
+void decomp_exchange_begin(decomp_t *d, const grid_t *g, const pops_t *p, int a, const int lo[3], const int hi[3])
 {
+    d->xnreq = 0;
+    d->xa = a;
     if (d->nbr[a][0] < 0 && d->nbr[a][1] < 0) {
-        return STATUS_OK;
+        return;
     }
     const double t0 = omp_get_wtime();
     const int push = p->state == LAYOUT_PUSHED, n = g->n[a];
     const int b = (a + 1) % 3, c = (a + 2) % 3;
     const size_t es = p->h != NULL ? sizeof(float) : sizeof(double);
     const size_t bytes = (size_t)(hi[b] - lo[b] + 1) * (size_t)(hi[c] - lo[c] + 1) * 5 * es;
-    if (d->cap < 4 * bytes) {
-        unsigned char *nbuf = realloc(d->buf, 4 * bytes);
-        if (nbuf == NULL) {
-            return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the halo buffers (%zu bytes)", 4 * bytes);
-        }
-        d->buf = nbuf;
-        d->cap = 4 * bytes;
-    }
-    MPI_Request req[4];
-    int nreq = 0;
+    memcpy(d->xlo, lo, sizeof d->xlo);
+    memcpy(d->xhi, hi, sizeof d->xhi);
+    d->xbytes = bytes;
+    MPI_Request *req = d->req;
     for (int side = 0; side < 2; side++) { /* receive from the neighbour on `side` */
         if (d->nbr[a][side] >= 0) {
             MPI_Irecv(d->buf + (size_t)(2 + side) * bytes, (int)bytes, MPI_BYTE, d->nbr[a][side], 1 - side,
-                      comm_of(d), &req[nreq++]);
+                      comm_of(d), &req[d->xnreq++]);
         }
     }
     for (int side = 0; side < 2; side++) { /* send to the neighbour on `side` */
@@ -316,9 +323,31 @@ status_t decomp_exchange_axis(decomp_t *d, const grid_t *g, const pops_t *p, int
         const int layer = push ? (side == 0 ? 0 : n + 1) : (side == 0 ? 1 : n);
         layer_copy(g, p, a, layer, lo, hi, qs, nq, d->buf + (size_t)side * bytes, 1);
         MPI_Isend(d->buf + (size_t)side * bytes, (int)bytes, MPI_BYTE, d->nbr[a][side], side, comm_of(d),
-                  &req[nreq++]);
+                  &req[d->xnreq++]);
     }
-    MPI_Waitall(nreq, req, MPI_STATUSES_IGNORE);
+    d->halo_seconds += omp_get_wtime() - t0;
+}
+
+void decomp_exchange_progress(decomp_t *d)
+{
+    if (d->xnreq > 0) {
+        const double t0 = omp_get_wtime();
+        int done = 0;
+        MPI_Testall(d->xnreq, d->req, &done, MPI_STATUSES_IGNORE);
+        d->halo_seconds += omp_get_wtime() - t0;
+    }
+}
+
+void decomp_exchange_end(decomp_t *d, const grid_t *g, const pops_t *p)
+{
+    const int a = d->xa;
+    if (d->nbr[a][0] < 0 && d->nbr[a][1] < 0) {
+        return;
+    }
+    const double t0 = omp_get_wtime();
+    MPI_Waitall(d->xnreq, d->req, MPI_STATUSES_IGNORE);
+    d->xnreq = 0;
+    const int push = p->state == LAYOUT_PUSHED, n = g->n[a];
     for (int side = 0; side < 2; side++) {
         if (d->nbr[a][side] < 0) {
             continue;
@@ -328,10 +357,9 @@ status_t decomp_exchange_axis(decomp_t *d, const grid_t *g, const pops_t *p, int
         int qs[5];
         const int nq = directions(a, side == 0 ? 1 : -1, qs);
         const int layer = push ? (side == 0 ? 1 : n) : (side == 0 ? 0 : n + 1);
-        layer_copy(g, p, a, layer, lo, hi, qs, nq, d->buf + (size_t)(2 + side) * bytes, 0);
+        layer_copy(g, p, a, layer, d->xlo, d->xhi, qs, nq, d->buf + (size_t)(2 + side) * d->xbytes, 0);
     }
     d->halo_seconds += omp_get_wtime() - t0;
-    return STATUS_OK;
 }
 
 status_t decomp_agree(const decomp_t *d, status_t st)

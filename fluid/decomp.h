@@ -42,8 +42,12 @@ typedef struct {
     int nbr[3][2];         /* rank across face (axis, side) by exchange; -1: a face of the domain */
     int periodic[3];       /* periodic axes of the domain */
     void *comm;            /* MPI_Comm * (the Cartesian one) or NULL */
-    unsigned char *buf;    /* send and receive buffers of one axis */
-    size_t cap;
+    unsigned char *buf;    /* send and receive buffers of one axis (4 x xbytes_max, from decomp_init) */
+    size_t cap, xbytes_max;
+    void *req;             /* MPI_Request[4] of the exchange in flight */
+    int xnreq, xa;         /* its requests and axis */
+    int xlo[3], xhi[3];    /* its cells */
+    size_t xbytes;         /* its bytes per message */
     double halo_bytes;     /* bytes this rank sends per step */
     double halo_seconds;   /* wall time in the exchanges so far (packing, waiting, unpacking) */
 } decomp_t;
@@ -73,9 +77,15 @@ static inline int decomp_exchanged(const decomp_t *d, int a, int side) { return 
 
 /* Exchange of axis a over the cells lo..hi (allocated coordinates, ghosts of
  * the axes done before included: walls.c periodic_fill): the populations
- * that cross the faces of a, in the layout state of p. */
-status_t decomp_exchange_axis(decomp_t *d, const grid_t *g, const pops_t *p, int a, const int lo[3], const int hi[3],
-                              const log_t *log);
+ * that cross the faces of a, in the layout state of p. In two halves, so
+ * that the update of the inner cells runs while the messages travel
+ * (fluid.c): begin packs the outgoing values and posts the messages,
+ * progress lets MPI move them on, end waits and unpacks. One axis at a
+ * time; the populations the exchange reads and writes must not change in
+ * between (the outer layers and the ghost layer). */
+void decomp_exchange_begin(decomp_t *d, const grid_t *g, const pops_t *p, int a, const int lo[3], const int hi[3]);
+void decomp_exchange_progress(decomp_t *d);
+void decomp_exchange_end(decomp_t *d, const grid_t *g, const pops_t *p);
 
 /* Collectives (identity without MPI). */
 status_t decomp_agree(const decomp_t *d, status_t st);         /* the worst status of all ranks */

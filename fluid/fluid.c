@@ -149,6 +149,8 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     fl->path = strdup(scene->path ? scene->path : "(scene)");
     fl->streaming = scene->fluid.streaming;
     fl->single = scene->fluid.precision == PRECISION_SINGLE;
+    const char *ov = getenv("AGGLO_OVERLAP");
+    fl->overlap = !(ov != NULL && strcmp(ov, "0") == 0);
     fl->layout = fl->streaming == STREAMING_TWO_ARRAY ? LAYOUT_PULL : LAYOUT_SWAPPED;
     if (fl->streaming == STREAMING_IN_PLACE && scene->fluid.boundary_scheme == BOUNDARY_MULTIREFLECTION &&
         scene_total_spheres(scene) > 0 && fabs(1.0 - fl->units.omega_minus) < SPHERES_MR_DECAY_MIN) {
@@ -383,46 +385,138 @@ static void share_kinematics(fluid_t *fl)
     }
 }
 
+/* The collision and streaming of the cells of box b (NULL: all). */
+static void update(fluid_t *fl, const kernel_box_t *b)
+{
+    if (fl->streaming == STREAMING_TWO_ARRAY) {
+        if (fl->single) {
+            kernel_stream_collide_f32(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
+        } else {
+            kernel_stream_collide(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
+        }
+    } else {
+        const int push = fl->layout == LAYOUT_SWAPPED;
+        if (fl->single) {
+            kernel_in_place_f32(&fl->g, &fl->kp, fl->f[0], push, b);
+        } else {
+            kernel_in_place(&fl->g, &fl->kp, fl->f[0], push, b);
+        }
+    }
+}
+
+/* Slices of the inner cells per exchanged axis, with MPI progress between. */
+enum { OVERLAP_SLICES = 4 };
+
+/* The step on several ranks: the exchange of each axis is in flight while a
+ * slice of the inner cells (2 .. n - 1 on every axis) is updated; then the
+ * links of the outer layer and its update. The values are those of the
+ * sequence of walls_fill, spheres_fill and one update, to the bit:
+ *  - the inner cells receive nothing from ghost cells, nor from a wall link
+ *    or a link of an outer cell (each writes what its own cell receives);
+ *  - the exchange reads and writes only what outer and ghost cells send and
+ *    receive, which the inner update does not touch;
+ *  - every link reads before the inner update (in place, that update
+ *    overwrites post-collision values of outer cells that it pulls): the
+ *    wall links' moments and the sphere links' values are taken first, the
+ *    outer ones written after the exchange (it writes the same slots, and
+ *    the links win, as in sequence).
+ * Two arrays: the inner update takes whole rows (the fast path of the
+ * kernel) and the outer update computes columns 1 and n again with the
+ * received values (only dst is written, so the second pass overwrites the
+ * first); in place a cell must be updated exactly once, so the inner box
+ * stops at columns 2 .. n - 1. */
+static void step_overlapped(fluid_t *fl, const pops_t *p, const pops_t *prev)
+{
+    const grid_t *g = &fl->g;
+    const int two = fl->streaming == STREAMING_TWO_ARRAY;
+    kernel_box_t in;
+    int empty = 0;
+    for (int a = 0; a < 3; a++) {
+        in.lo[a] = 2;
+        in.hi[a] = g->n[a] - 1;
+        empty = empty || in.lo[a] > in.hi[a];
+    }
+    if (two && !empty) {
+        in.lo[0] = 1;
+        in.hi[0] = g->n[0];
+    }
+    walls_links_prepare(&fl->walls, p);
+    if (fl->spheres.n > 0) {
+        spheres_fill(&fl->spheres, p, prev, SPHERES_HOLD_OUTER);
+    }
+    int axes[3];
+    const int m = walls_halo_axes(&fl->walls, p, axes);
+    const int nslice = m * OVERLAP_SLICES, zlen = empty ? 0 : in.hi[2] - in.lo[2] + 1;
+    for (int k = 0; k < m; k++) {
+        walls_halo_begin(&fl->walls, g, p, axes[k]);
+        for (int j = k * OVERLAP_SLICES; j < (k + 1) * OVERLAP_SLICES; j++) {
+            kernel_box_t b = in;
+            b.lo[2] = in.lo[2] + zlen * j / nslice;
+            b.hi[2] = in.lo[2] + zlen * (j + 1) / nslice - 1;
+            update(fl, &b);
+            decomp_exchange_progress(&fl->d);
+        }
+        walls_halo_end(&fl->walls, g, p, axes[k]);
+    }
+    walls_links(&fl->walls, p);
+    if (fl->spheres.n > 0) {
+        spheres_write_outer(&fl->spheres, p);
+    }
+    if (empty) {
+        update(fl, NULL);
+        return;
+    }
+    /* the outer layer: two z slabs, two y slabs between them, two x columns between those */
+    const int n0 = g->n[0], n1 = g->n[1], n2 = g->n[2];
+    const kernel_box_t outer[6] = {
+        {{1, 1, 1}, {n0, n1, 1}},
+        {{1, 1, n2}, {n0, n1, n2}},
+        {{1, 1, 2}, {n0, 1, n2 - 1}},
+        {{1, n1, 2}, {n0, n1, n2 - 1}},
+        {{1, 2, 2}, {1, n1 - 1, n2 - 1}},
+        {{n0, 2, 2}, {n0, n1 - 1, n2 - 1}},
+    };
+    for (int i = 0; i < 6; i++) {
+        update(fl, &outer[i]);
+    }
+}
+
 status_t fluid_step(fluid_t *fl)
 {
     const pops_t p = fluid_pops(fl);
     const int two = fl->streaming == STREAMING_TWO_ARRAY;
+    pops_t prev;
+    if (two) {
+        pops_init(&prev, &fl->g, fl->f[1 - fl->cur], fl->single, LAYOUT_PULL);
+    }
     if (fl->spheres.n > 0) {
         share_kinematics(fl);
         spheres_advance_prescribed(&fl->spheres, fl->step);
-        status_t st = spheres_map(&fl->spheres, &fl->g, fl->flags, &p, &fl->log);
-        if (st == STATUS_OK) {
-            st = walls_fill(&fl->walls, &fl->g, &p, &fl->log);
-        }
-        if ((st = decomp_agree(&fl->d, st)) != STATUS_OK) {
-            return st;
-        }
-        pops_t prev;
-        if (two) {
-            pops_init(&prev, &fl->g, fl->f[1 - fl->cur], fl->single, LAYOUT_PULL);
-        }
-        spheres_fill(&fl->spheres, &fl->g, &p, two ? &prev : NULL);
-    } else {
-        const status_t st = decomp_agree(&fl->d, walls_fill(&fl->walls, &fl->g, &p, &fl->log));
+        const status_t st = decomp_agree(&fl->d, spheres_map(&fl->spheres, &fl->g, fl->flags, &p, &fl->log));
         if (st != STATUS_OK) {
             return st;
         }
     }
-    if (two) {
-        if (fl->single) {
-            kernel_stream_collide_f32(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur]);
-        } else {
-            kernel_stream_collide(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur]);
+    int exchanged = 0;
+    for (int a = 0; a < 3; a++) {
+        exchanged = exchanged || decomp_exchanged(&fl->d, a, 0) || decomp_exchanged(&fl->d, a, 1);
+    }
+    if (exchanged && fl->overlap) {
+        step_overlapped(fl, &p, two ? &prev : NULL);
+    } else {
+        walls_fill(&fl->walls, &fl->g, &p);
+        if (fl->spheres.n > 0) {
+            spheres_fill(&fl->spheres, &p, two ? &prev : NULL, SPHERES_ALL);
         }
+        update(fl, NULL);
+    }
+    if (fl->spheres.n > 0) {
+        spheres_loads(&fl->spheres);
+    }
+    if (two) {
         fl->cur = 1 - fl->cur;
     } else {
-        const int push = fl->layout == LAYOUT_SWAPPED;
-        if (fl->single) {
-            kernel_in_place_f32(&fl->g, &fl->kp, fl->f[0], push);
-        } else {
-            kernel_in_place(&fl->g, &fl->kp, fl->f[0], push);
-        }
-        fl->layout = push ? LAYOUT_PUSHED : LAYOUT_SWAPPED;
+        fl->layout = fl->layout == LAYOUT_SWAPPED ? LAYOUT_PUSHED : LAYOUT_SWAPPED;
     }
     fl->step++;
     return fl->spheres.n > 0 ? watch_period_two(fl) : STATUS_OK;

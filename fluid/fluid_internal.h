@@ -27,6 +27,8 @@ struct fluid {
     kernel_params_t kp;
     void *f[2];           /* two_array: both; in_place: f[0] only (f[1] NULL); double or float */
     int single;           /* fluid.precision single: float storage of f - w_q (layout.h) */
+    int overlap;          /* several ranks: the inner update while the halo is in flight (fluid.c;
+                           * AGGLO_OVERLAP=0 turns it off, for comparisons) */
     int cur;
     streaming_t streaming;
     layout_state_t layout; /* of f[cur] (layout.h) */

@@ -55,8 +55,9 @@ typedef double real_t;
 #define KERNEL_ENTRY KERNEL_BASE_NAME(kernel_stream_collide)
 #define KERNEL_IN_PLACE KERNEL_BASE_NAME(kernel_in_place)
 #endif
-void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restrict src, real_t *restrict dst);
-void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int push);
+void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restrict src, real_t *restrict dst,
+                  const kernel_box_t *box);
+void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int push, const kernel_box_t *box);
 
 #if (!defined(KERNEL_VARIANT) || defined(KERNEL_PRIMARY)) && !defined(KERNEL_SINGLE)
 double kernel_omega_minus(double omega_plus, double magic)
@@ -241,8 +242,26 @@ static inline __attribute__((always_inline)) void kernel_consts(const kernel_par
     }
 }
 
-void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restrict src, real_t *restrict dst)
+/* The box to update: all interior cells without one; false when it is empty. */
+static inline int kernel_range(const grid_t *g, const kernel_box_t *box, int lo[3], int hi[3])
 {
+    for (int a = 0; a < 3; a++) {
+        lo[a] = box != NULL ? box->lo[a] : 1;
+        hi[a] = box != NULL ? box->hi[a] : g->n[a];
+        if (lo[a] > hi[a]) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restrict src, real_t *restrict dst,
+                  const kernel_box_t *box)
+{
+    int lo[3], hi[3];
+    if (!kernel_range(g, box, lo, hi)) {
+        return;
+    }
     consts_t k;
     kernel_consts(p, &k);
     const int forced = k.fx != 0.0 || k.fy != 0.0 || k.fz != 0.0;
@@ -250,7 +269,11 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
     for (int q = 0; q < LB_Q; q++) {
         off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
     }
-    const int ny = g->n[1], nz = g->n[2], sx = g->s[0];
+    /* whole rows: the allocated row from column 0, ghost and padding
+     * columns included (aligned blocks for the non-temporal stores); a part
+     * of rows: its cells, ordinary stores */
+    const int rows = lo[0] == 1 && hi[0] == g->n[0];
+    const int x_first = rows ? 0 : lo[0], x_end = rows ? g->s[0] : hi[0] + 1;
     const size_t ncells = g->stride;
 #pragma omp parallel
     {
@@ -258,17 +281,27 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
         double buf[LB_Q][KERNEL_BLOCK] __attribute__((aligned(64)));
 #endif
 #pragma omp for collapse(2) schedule(static) nowait
-        for (int z = 1; z <= nz; z++) {
-            for (int y = 1; y <= ny; y++) {
+        for (int z = lo[2]; z <= hi[2]; z++) {
+            for (int y = lo[1]; y <= hi[1]; y++) {
                 const size_t row = grid_index(g, 0, y, z);
-                for (int x0 = 0; x0 < sx; x0 += KERNEL_BLOCK) {
-                    const int nb = sx - x0 < KERNEL_BLOCK ? sx - x0 : KERNEL_BLOCK;
+                for (int x0 = x_first; x0 < x_end; x0 += KERNEL_BLOCK) {
+                    const int nb = x_end - x0 < KERNEL_BLOCK ? x_end - x0 : KERNEL_BLOCK;
                     const size_t base = row + (size_t)x0;
                     const real_t *in[LB_Q];
                     for (int q = 0; q < LB_Q; q++) {
                         in[q] = src + (size_t)q * ncells + base - off[q];
                     }
-#if defined(KERNEL_SINGLE)
+#if !defined(KERNEL_SINGLE)
+                    if (rows) {
+                        if (forced) {
+                            collide_block(&k, in, nb, buf, NULL, 0, 1);
+                        } else {
+                            collide_block(&k, in, nb, buf, NULL, 0, 0);
+                        }
+                        store_block_nt(dst, ncells, base, nb, buf);
+                        continue;
+                    }
+#endif
                     real_t *out[LB_Q];
                     for (int q = 0; q < LB_Q; q++) {
                         out[q] = dst + (size_t)q * ncells + base;
@@ -278,14 +311,6 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
                     } else {
                         collide_block(&k, in, nb, NULL, out, 1, 0);
                     }
-#else
-                    if (forced) {
-                        collide_block(&k, in, nb, buf, NULL, 0, 1);
-                    } else {
-                        collide_block(&k, in, nb, buf, NULL, 0, 0);
-                    }
-                    store_block_nt(dst, ncells, base, nb, buf);
-#endif
                 }
             }
         }
@@ -299,8 +324,12 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
  * in, slot qbar of x out), push = 1 the push kernel (slot qbar of x - c_q in,
  * slot q of x + c_q out). Interior cells only; results go straight to the
  * array (no block buffer: in place the lines were just read). */
-void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int push)
+void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int push, const kernel_box_t *box)
 {
+    int lo[3], hi[3];
+    if (!kernel_range(g, box, lo, hi)) {
+        return;
+    }
     consts_t k;
     kernel_consts(p, &k);
     const int forced = k.fx != 0.0 || k.fy != 0.0 || k.fz != 0.0;
@@ -308,17 +337,16 @@ void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int p
     for (int q = 0; q < LB_Q; q++) {
         off[q] = push ? grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]) : 0;
     }
-    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const size_t ncells = g->stride;
 #pragma omp parallel
     {
 #pragma omp for collapse(2) schedule(static)
-        for (int z = 1; z <= nz; z++) {
-            for (int y = 1; y <= ny; y++) {
+        for (int z = lo[2]; z <= hi[2]; z++) {
+            for (int y = lo[1]; y <= hi[1]; y++) {
                 const size_t row = grid_index(g, 0, y, z);
                 /* the interior cells only: no alignment to keep (ordinary stores) */
-                for (int x0 = 1; x0 <= nx; x0 += KERNEL_ROW) {
-                    const int nb = nx + 1 - x0 < KERNEL_ROW ? nx + 1 - x0 : KERNEL_ROW;
+                for (int x0 = lo[0]; x0 <= hi[0]; x0 += KERNEL_ROW) {
+                    const int nb = hi[0] + 1 - x0 < KERNEL_ROW ? hi[0] + 1 - x0 : KERNEL_ROW;
                     const size_t base = row + (size_t)x0;
                     const real_t *in[LB_Q];
                     real_t *out[LB_Q];

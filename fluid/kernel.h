@@ -13,6 +13,15 @@
 
 #include "grid.h"
 
+/* The cells one call updates: interior cells lo..hi (allocated coordinates,
+ * inclusive). fluid.c updates a block's inner cells while its halo is in
+ * flight and its outer layer afterwards (README "Several MPI ranks"). A
+ * box of whole rows (lo[0] = 1, hi[0] = n[0]) goes through the row path
+ * above; a part of rows gets ordinary stores. NULL: every interior cell. */
+typedef struct {
+    int lo[3], hi[3];
+} kernel_box_t;
+
 typedef struct {
     double omega_plus;  /* 1/tau: sets the viscosity nu = (1/omega_plus - 1/2)/3 */
     double omega_minus; /* TRT: from the magic parameter; BGK: = omega_plus */
@@ -24,15 +33,15 @@ typedef struct {
 double kernel_omega_minus(double omega_plus, double magic);
 
 void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const double *restrict src,
-                           double *restrict dst);
+                           double *restrict dst, const kernel_box_t *box);
 /* The in-place (AA) step on one array (layout.h): push = 0 the local kernel
  * (from the PUSHED state to SWAPPED), push = 1 the push kernel (SWAPPED to
  * PUSHED). */
-void kernel_in_place(const grid_t *g, const kernel_params_t *p, double *f, int push);
+void kernel_in_place(const grid_t *g, const kernel_params_t *p, double *f, int push, const kernel_box_t *box);
 /* The same with single-precision storage (fluid.precision: single): every
  * value is f_q - w_q as a float, the arithmetic is in double (kernel.c). */
 void kernel_stream_collide_f32(const grid_t *g, const kernel_params_t *p, const float *restrict src,
-                               float *restrict dst);
-void kernel_in_place_f32(const grid_t *g, const kernel_params_t *p, float *f, int push);
+                               float *restrict dst, const kernel_box_t *box);
+void kernel_in_place_f32(const grid_t *g, const kernel_params_t *p, float *f, int push, const kernel_box_t *box);
 
 #endif

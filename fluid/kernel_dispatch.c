@@ -10,18 +10,18 @@
 #include <string.h>
 
 void kernel_stream_collide_base(const grid_t *g, const kernel_params_t *p, const double *restrict src,
-                                double *restrict dst);
+                                double *restrict dst, const kernel_box_t *box);
 void kernel_stream_collide_v3(const grid_t *g, const kernel_params_t *p, const double *restrict src,
-                              double *restrict dst);
+                              double *restrict dst, const kernel_box_t *box);
 
-void kernel_in_place_base(const grid_t *g, const kernel_params_t *p, double *f, int push);
-void kernel_in_place_v3(const grid_t *g, const kernel_params_t *p, double *f, int push);
+void kernel_in_place_base(const grid_t *g, const kernel_params_t *p, double *f, int push, const kernel_box_t *box);
+void kernel_in_place_v3(const grid_t *g, const kernel_params_t *p, double *f, int push, const kernel_box_t *box);
 void kernel_stream_collide_f32_base(const grid_t *g, const kernel_params_t *p, const float *restrict src,
-                                    float *restrict dst);
+                                    float *restrict dst, const kernel_box_t *box);
 void kernel_stream_collide_f32_v3(const grid_t *g, const kernel_params_t *p, const float *restrict src,
-                                  float *restrict dst);
-void kernel_in_place_f32_base(const grid_t *g, const kernel_params_t *p, float *f, int push);
-void kernel_in_place_f32_v3(const grid_t *g, const kernel_params_t *p, float *f, int push);
+                                  float *restrict dst, const kernel_box_t *box);
+void kernel_in_place_f32_base(const grid_t *g, const kernel_params_t *p, float *f, int push, const kernel_box_t *box);
+void kernel_in_place_f32_v3(const grid_t *g, const kernel_params_t *p, float *f, int push, const kernel_box_t *box);
 
 static int use_v3(void)
 {
@@ -39,39 +39,39 @@ static int use_v3(void)
 }
 
 void kernel_stream_collide(const grid_t *g, const kernel_params_t *p, const double *restrict src,
-                           double *restrict dst)
+                           double *restrict dst, const kernel_box_t *box)
 {
     if (use_v3()) {
-        kernel_stream_collide_v3(g, p, src, dst);
+        kernel_stream_collide_v3(g, p, src, dst, box);
     } else {
-        kernel_stream_collide_base(g, p, src, dst);
+        kernel_stream_collide_base(g, p, src, dst, box);
     }
 }
 
-void kernel_in_place(const grid_t *g, const kernel_params_t *p, double *f, int push)
+void kernel_in_place(const grid_t *g, const kernel_params_t *p, double *f, int push, const kernel_box_t *box)
 {
     if (use_v3()) {
-        kernel_in_place_v3(g, p, f, push);
+        kernel_in_place_v3(g, p, f, push, box);
     } else {
-        kernel_in_place_base(g, p, f, push);
+        kernel_in_place_base(g, p, f, push, box);
     }
 }
 
 void kernel_stream_collide_f32(const grid_t *g, const kernel_params_t *p, const float *restrict src,
-                               float *restrict dst)
+                               float *restrict dst, const kernel_box_t *box)
 {
     if (use_v3()) {
-        kernel_stream_collide_f32_v3(g, p, src, dst);
+        kernel_stream_collide_f32_v3(g, p, src, dst, box);
     } else {
-        kernel_stream_collide_f32_base(g, p, src, dst);
+        kernel_stream_collide_f32_base(g, p, src, dst, box);
     }
 }
 
-void kernel_in_place_f32(const grid_t *g, const kernel_params_t *p, float *f, int push)
+void kernel_in_place_f32(const grid_t *g, const kernel_params_t *p, float *f, int push, const kernel_box_t *box)
 {
     if (use_v3()) {
-        kernel_in_place_f32_v3(g, p, f, push);
+        kernel_in_place_f32_v3(g, p, f, push, box);
     } else {
-        kernel_in_place_f32_base(g, p, f, push);
+        kernel_in_place_f32_base(g, p, f, push, box);
     }
 }

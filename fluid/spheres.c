@@ -719,6 +719,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                      * correction for this one step (with it, a moving sphere's drag
                      * fluctuated 16 times more) */
                     l->fresh = (flags[i] & FLAG_FRESH) != 0;
+                    l->outer = !inner;
                     const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
                     boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, l->a, l->b,
@@ -767,11 +768,10 @@ static status_t build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, cons
 
 static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0, const pops_t *prev,
                                                              const link_list_t *list, int galilean, double inv_decay,
-                                                             layout_state_t state, int single);
+                                                             spheres_part_t part, layout_state_t state, int single);
 
-void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *f, const pops_t *prev)
+void spheres_fill(spheres_t *sp, const pops_t *f, const pops_t *prev, spheres_part_t part)
 {
-    (void)g;
     const int galilean = sp->force == FORCE_GALILEAN;
     /* n^- of the pre-collision populations from the post-collision ones. TRT
      * with Guo forcing gives f~^- = (1 - w-) f^- + w- e^- + (1 - w-/2) 3 w c.F,
@@ -785,10 +785,29 @@ void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *f, const pops_t 
 #pragma omp parallel for schedule(dynamic, 1)
     for (int k = 0; k < sp->n; k++) {
         const link_list_t *l = &sp->lists[k];
-#define FILL(state, single) fill_sphere(sp, f, prev, l, galilean, inv_decay, state, single)
+#define FILL(state, single) fill_sphere(sp, f, prev, l, galilean, inv_decay, part, state, single)
         POPS_SPECIALISE(f, FILL);
 #undef FILL
     }
+}
+
+void spheres_write_outer(spheres_t *sp, const pops_t *f)
+{
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int k = 0; k < sp->n; k++) {
+        const link_list_t *list = &sp->lists[k];
+        for (size_t n = 0; n < list->n; n++) {
+            const sphere_link_t *l = &list->l[n];
+            if (l->outer) {
+                const int o = lb_opposite(l->q);
+                pops_write(f, o, pops_in_slot(f, o, l->xf), l->fnew);
+            }
+        }
+    }
+}
+
+void spheres_loads(spheres_t *sp)
+{
     /* every rank's part of each load (the links of its cells, the cells it
      * covered and uncovered), summed exactly: all ranks get the same load */
     const int parallel = decomp_parallel(sp->dc);
@@ -812,7 +831,7 @@ void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *f, const pops_t 
 
 static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0, const pops_t *prev,
                                                              const link_list_t *list, int galilean, double inv_decay,
-                                                             layout_state_t state, int single)
+                                                             spheres_part_t part, layout_state_t state, int single)
 {
     const pops_t fl = pops_fixed(f0, state, single);
     const pops_t *f = &fl;
@@ -823,7 +842,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
     double cl[8] = {0.0};
     sphere_t *p = list->n > 0 ? &sp->s[list->l[0].sphere] : NULL;
     for (size_t n = 0; n < list->n; n++) {
-        const sphere_link_t *l = &list->l[n];
+        sphere_link_t *l = &list->l[n];
         const int q = l->q, o = lb_opposite(q);
         if (l->xf != cell) { /* the links of a cell are consecutive (sphere_links) */
             if (n > 0) {
@@ -888,7 +907,11 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
             }
             f_new += l->corr * nm;
         }
-        pops_write(f, o, pops_in_slot(f, o, l->xf), f_new);
+        if (part == SPHERES_HOLD_OUTER && l->outer) {
+            l->fnew = f_new;
+        } else {
+            pops_write(f, o, pops_in_slot(f, o, l->xf), f_new);
+        }
         /* Eq. 7 (Ladd), populations centred on the rest weight so that hidden
          * faces of touching spheres carry no spurious pressure; Wen et al.,
          * Phys. Rev. E 89 (2014) 023305, add -(f_old - f_new) u_w. */

@@ -85,6 +85,8 @@ typedef struct {
     double rw[3];         /* wall point minus sphere centre */
     int q, sphere;
     int fresh;            /* x_f was uncovered this step: no multireflection correction */
+    int outer;            /* x_f lies in the outer layer of the block (spheres_fill) */
+    double fnew;          /* outer: the value to write, held back (SPHERES_HOLD_OUTER) */
     double delta;
 } sphere_link_t;
 
@@ -137,8 +139,18 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
  * Multireflection needs the pre-collision populations of x_f: with two
  * arrays, prev is the other array (PULL state: the previous step's values
  * that x_f pulled); in place (prev NULL) they follow from the post-collision
- * ones (spheres.c). */
-void spheres_fill(spheres_t *sp, const grid_t *g, const pops_t *p, const pops_t *prev);
+ * ones (spheres.c). A link writes what its x_f receives. With
+ * SPHERES_HOLD_OUTER the links of cells in the outer layer of the block
+ * keep their values until spheres_write_outer: their slots are written by
+ * the halo exchange too, which must come first, while every link must read
+ * before the update of the inner cells (in place it overwrites values the
+ * links read): fluid.c. */
+typedef enum { SPHERES_ALL, SPHERES_HOLD_OUTER } spheres_part_t;
+void spheres_fill(spheres_t *sp, const pops_t *p, const pops_t *prev, spheres_part_t part);
+void spheres_write_outer(spheres_t *sp, const pops_t *p);
+/* After the fill of every link: each sphere's load of this step (summed
+ * over ranks; collective). */
+void spheres_loads(spheres_t *sp);
 /* Moves prescribed and fixed spheres by one step (dt = 1). */
 void spheres_advance_prescribed(spheres_t *sp, long step);
 /* Wraps a centre (global lattice coordinates) onto the periodic axes. */

@@ -88,6 +88,7 @@ static status_t push_copy(walls_t *w, size_t *cap, size_t cell, int q, size_t sr
 status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_t *u, decomp_t *d, const log_t *log)
 {
     w->links = NULL;
+    w->pre = NULL;
     w->nlinks = 0;
     w->copies = NULL;
     w->ncopies = 0;
@@ -200,13 +201,20 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
             }
         }
     }
+    w->pre = malloc((w->nlinks > 0 ? w->nlinks : 1) * sizeof *w->pre);
+    if (w->pre == NULL) {
+        walls_free(w);
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the moments of %zu wall links", w->nlinks);
+    }
     return STATUS_OK;
 }
 
 void walls_free(walls_t *w)
 {
     free(w->links);
+    free(w->pre);
     free(w->copies);
+    w->pre = NULL;
     w->links = NULL;
     w->copies = NULL;
     w->nlinks = 0;
@@ -275,30 +283,81 @@ static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[
     }
 }
 
-static status_t periodic_fill(const walls_t *w, const grid_t *g, const pops_t *p, const log_t *log)
+int walls_halo_axes(const walls_t *w, const pops_t *p, int axes[3])
 {
     const int push = p->state == LAYOUT_PUSHED;
-    status_t st = STATUS_OK;
+    int m = 0;
     for (int k = 0; k < 3; k++) {
         const int a = push ? 2 - k : k;
-        if (!w->periodic[a] && !decomp_exchanged(w->d, a, 0) && !decomp_exchanged(w->d, a, 1)) {
-            continue;
-        }
-        int lo[3], hi[3];
-        decomp_exchange_range(w->d, g->n, a, lo, hi);
-        if (w->periodic[a]) {
-            periodic_axis(g, p, a, lo, hi);
-        } else {
-            /* the same copy with the other side on another rank */
-            st = status_worst(st, decomp_exchange_axis(w->d, g, p, a, lo, hi, log));
+        if (w->periodic[a] || decomp_exchanged(w->d, a, 0) || decomp_exchanged(w->d, a, 1)) {
+            axes[m++] = a;
         }
     }
-    return st;
+    return m;
 }
 
-status_t walls_fill(const walls_t *w, const grid_t *g, const pops_t *p, const log_t *log)
+void walls_halo_begin(const walls_t *w, const grid_t *g, const pops_t *p, int a)
 {
-    const status_t st = periodic_fill(w, g, p, log);
+    int lo[3], hi[3];
+    decomp_exchange_range(w->d, g->n, a, lo, hi);
+    if (w->periodic[a]) {
+        periodic_axis(g, p, a, lo, hi);
+    } else {
+        /* the same copy with the other side on another rank */
+        decomp_exchange_begin(w->d, g, p, a, lo, hi);
+    }
+}
+
+void walls_halo_end(const walls_t *w, const grid_t *g, const pops_t *p, int a)
+{
+    if (!w->periodic[a]) {
+        decomp_exchange_end(w->d, g, p);
+    }
+}
+
+void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
+{
+    walls_links_prepare(w, p);
+    int axes[3];
+    const int m = walls_halo_axes(w, p, axes);
+    for (int k = 0; k < m; k++) {
+        walls_halo_begin(w, g, p, axes[k]);
+        walls_halo_end(w, g, p, axes[k]);
+    }
+    walls_links(w, p);
+}
+
+void walls_links_prepare(const walls_t *w, const pops_t *p)
+{
+    const ptrdiff_t n = (ptrdiff_t)w->nlinks;
+#pragma omp parallel
+    {
+    /* the links of a cell are consecutive (walls_build): its moments once */
+    size_t last = (size_t)-1;
+    double rho_last = 0.0, u_last[3];
+#pragma omp for schedule(static)
+    for (ptrdiff_t i = 0; i < n; i++) {
+        const ghost_link_t *l = &w->links[i];
+        if (l->kind == LINK_BOUNCE && l->coef != 0.0) {
+            if (l->cell != last) {
+                last = l->cell;
+                moments(p, last, &rho_last, u_last);
+            }
+            w->pre[i].v[0] = rho_last;
+        } else if (l->kind == LINK_ANTI) {
+            double r1, r2, u1[3], u2[3];
+            moments(p, l->cell, &r1, u1);
+            moments(p, l->cell2, &r2, u2);
+            for (int a = 0; a < 3; a++) {
+                w->pre[i].v[a] = 1.5 * u1[a] - 0.5 * u2[a];
+            }
+        }
+    }
+    }
+}
+
+void walls_links(const walls_t *w, const pops_t *p)
+{
     const ptrdiff_t nc = (ptrdiff_t)w->ncopies, n = (ptrdiff_t)w->nlinks;
     const copy_link_t *restrict cp = w->copies;
 #pragma omp parallel
@@ -308,9 +367,6 @@ status_t walls_fill(const walls_t *w, const grid_t *g, const pops_t *p, const lo
         /* the mirrored direction has the same weight */
         pops_copy(p, pops_in_slot(p, cp[i].q, cp[i].cell), pops_post_slot(p, cp[i].sq, cp[i].src));
     }
-    /* the links of a cell are consecutive (walls_build): its moments once */
-    size_t last = (size_t)-1;
-    double rho_last = 0.0, u_last[3];
 #pragma omp for schedule(static)
     for (ptrdiff_t i = 0; i < n; i++) {
         const ghost_link_t *l = &w->links[i];
@@ -320,24 +376,12 @@ status_t walls_fill(const walls_t *w, const grid_t *g, const pops_t *p, const lo
         case LINK_COPY:
             break; /* all in w->copies */
         case LINK_BOUNCE: {
-            double v = bounced;
-            if (l->coef != 0.0) {
-                if (l->cell != last) {
-                    last = l->cell;
-                    moments(p, last, &rho_last, u_last);
-                }
-                v += l->coef * rho_last;
-            }
+            const double v = l->coef != 0.0 ? bounced + l->coef * w->pre[i].v[0] : bounced;
             pops_write(p, l->q, dst, v);
             break;
         }
         case LINK_ANTI: {
-            double r1, r2, u1[3], u2[3], uw[3];
-            moments(p, l->cell, &r1, u1);
-            moments(p, l->cell2, &r2, u2);
-            for (int a = 0; a < 3; a++) {
-                uw[a] = 1.5 * u1[a] - 0.5 * u2[a];
-            }
+            const double *uw = w->pre[i].v;
             const double cu = lb_c[l->q][0] * uw[0] + lb_c[l->q][1] * uw[1] + lb_c[l->q][2] * uw[2];
             const double uu = uw[0] * uw[0] + uw[1] * uw[1] + uw[2] * uw[2];
             pops_write(p, l->q, dst, -bounced + 2.0 * lb_w[l->q] * l->coef * (1.0 + 4.5 * cu * cu - 1.5 * uu));
@@ -346,5 +390,4 @@ status_t walls_fill(const walls_t *w, const grid_t *g, const pops_t *p, const lo
         }
     }
     }
-    return st;
 }

@@ -47,8 +47,15 @@ typedef struct {
     uint8_t q, sq;
 } copy_link_t;
 
+/* What a link reads of the cells' moments, taken before the step changes
+ * them (walls_links_prepare): bounce, rho of its cell; anti, u_w. */
+typedef struct {
+    double v[3];
+} link_moments_t;
+
 typedef struct {
     ghost_link_t *links; /* bounce and anti links */
+    link_moments_t *pre; /* per link */
     size_t nlinks;
     copy_link_t *copies; /* free-slip copy links in cell order: a tight, cache-friendly loop */
     size_t ncopies;
@@ -62,6 +69,20 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
 void walls_free(walls_t *w);
 /* Writes the populations that interior cells receive from ghost cells: the
  * periodic copy and the exchange with other ranks first, then the links. */
-status_t walls_fill(const walls_t *w, const grid_t *g, const pops_t *p, const log_t *log);
+void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p);
+/* walls_fill in its steps, for the update of the inner cells while the
+ * exchange is in flight (fluid.c): the moments the links read (before any
+ * cell is updated: in place, the inner cells' update overwrites the
+ * post-collision values of the outer ones that it pulls); the axes whose
+ * ghost layers are copied or exchanged, in the order the layout state
+ * needs (returns how many); each axis begun (the local periodic copy, or
+ * the exchange posted) and ended (received) in that order; then the links.
+ * Every step writes only populations that the cells of the outer layer
+ * receive (layout.h in_slot), and reads only what no inner cell takes. */
+void walls_links_prepare(const walls_t *w, const pops_t *p);
+int walls_halo_axes(const walls_t *w, const pops_t *p, int axes[3]);
+void walls_halo_begin(const walls_t *w, const grid_t *g, const pops_t *p, int a);
+void walls_halo_end(const walls_t *w, const grid_t *g, const pops_t *p, int a);
+void walls_links(const walls_t *w, const pops_t *p);
 
 #endif

@@ -54,9 +54,12 @@ run:
 # (label, ranks, threads, --set options). MPI_Dims_create cuts 2 ranks along x; the same with the
 # cut along z is measured too: the exchange of an x face packs one value per row of every
 # population (strided), of a z face whole contiguous rows.
-CONFIGS = [("1 rank x 1 thread", 1, 1, []), ("1 rank x 2 threads", 1, 2, []),
-           ("2 ranks x 1 thread, x cut", 2, 1, ["run.ranks=[2, 1, 1]"]),
-           ("2 ranks x 1 thread, z cut", 2, 1, [])]
+# The exchange overlaps the update of the inner cells (fluid.c step_overlapped); AGGLO_OVERLAP=0
+# runs the same step in sequence, for the comparison in one run.
+CONFIGS = [("1 rank x 1 thread", 1, 1, [], {}), ("1 rank x 2 threads", 1, 2, [], {}),
+           ("2 ranks x 1 thread, x cut", 2, 1, ["run.ranks=[2, 1, 1]"], {}),
+           ("2 ranks x 1 thread, z cut", 2, 1, [], {}),
+           ("2 ranks, z cut, no overlap", 2, 1, [], {"AGGLO_OVERLAP": "0"})]
 
 
 def uptime():
@@ -72,20 +75,24 @@ def set_args(sets):
     return [a for s in sets for a in ("--set", s)]
 
 
-def run_once(coupler, scene, out, steps, ranks, threads, sets):
-    """One `coupler run`; returns (wall_time_fluid, mlups, ranks) from the result file."""
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+def run_once(coupler, scene, out, steps, ranks, threads, sets, extra_env):
+    """One `coupler run`; returns (wall_time_fluid, mlups, ranks) from the result file and the
+    seconds rank 0 spent in the halo exchanges (its closing log line; 0 on one rank)."""
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads), **extra_env)
     cmd = [str(coupler), "run", str(scene), "--steps", str(steps), "--quiet", "-o", str(out)] + set_args(sets)
     if ranks > 1:
         mpirun = shutil.which("mpirun")
         if mpirun is None:
             sys.exit("mpi_scaling: mpirun is not installed (openmpi-bin)")
-        cmd = [mpirun, "--allow-run-as-root", "--oversubscribe", "-np", str(ranks), "-x", "OMP_NUM_THREADS"] + cmd
+        exports = [a for k in ["OMP_NUM_THREADS", *extra_env] for a in ("-x", k)]
+        cmd = [mpirun, "--allow-run-as-root", "--oversubscribe", "-np", str(ranks), *exports] + cmd
     r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
     if r.returncode != 0:
         sys.exit(f"mpi_scaling: {' '.join(cmd)} failed:\n{r.stderr[-3000:]}")
+    m = re.search(r"exchanges ([\d.eE+-]+) s in", r.stdout + r.stderr)
     with h5py.File(out, "r") as f:
-        return float(f.attrs["wall_time_fluid"]), float(f.attrs["mlups"]), int(f.attrs.get("ranks", 1))
+        return (float(f.attrs["wall_time_fluid"]), float(f.attrs["mlups"]), int(f.attrs.get("ranks", 1)),
+                float(m.group(1)) if m else 0.0)
 
 
 def halo_per_rank(coupler, scene, ranks, sets):
@@ -106,39 +113,43 @@ COPY_NS_PER_BYTE = 1.0
 
 
 def halo_model(n, mlups_per_core, cores_per_rank=8, bandwidth_bits=100e9, latency=2e-6, value_bytes=8,
-               copy_ns_per_byte=COPY_NS_PER_BYTE, copy_speedup=4.0):
+               copy_ns_per_byte=COPY_NS_PER_BYTE, copy_speedup=4.0, overlap=True):
     """Halo bytes per rank per step and the fraction of a step spent in the exchange, for a
     cubic block of n^3 cells per rank in the interior of a 3-D decomposition.
 
     Assumptions:
     - 6 exchanged faces (every neighbour on another rank), 5 populations of value_bytes each per
-      face cell. The faces span the ranges of fluid/walls.c periodic_fill: the x faces n x n,
+      face cell. The faces span the ranges of fluid/walls.c walls_halo_begin: the x faces n x n,
       the y faces (n + 2) x n, the z faces (n + 2) x (n + 2) (the ghost rows of the axes
       exchanged before). Halo bytes per rank per step = 2 * 5 * value_bytes * (sum of the 3).
-    - The exchange runs axis after axis as decomp_exchange_axis does: 3 rounds; in each, the
+    - The exchange runs axis after axis as fluid.c step_overlapped does: 3 rounds; in each, the
       two messages of the axis (one to each side) leave through one network port at the same
-      time and the two from the neighbours arrive meanwhile (full duplex), so a round takes
-      latency + 2 * face_bytes / bandwidth. t_halo = sum over the 3 axes. Packing and unpacking
-      (memory copies) and MPI's software overhead are left out, and nothing overlaps: the
-      exchange (a blocking MPI_Waitall) comes before the kernel.
+      time and the two from the neighbours arrive meanwhile (full duplex), so a round's wire
+      time is latency + 2 * face_bytes / bandwidth.
+    - The copies (packing, unpacking; on a cluster the network card moves the bytes) cost
+      copy_ns_per_byte per byte sent, measured on one core here (COPY_NS_PER_BYTE), divided by
+      copy_speedup = 4 for the 8 cores of a rank (the copies are OpenMP loops, memory-bound).
+      They are work of the cores: they never overlap the kernel.
+    - overlap (the code's default): while a round is on the wire the rank updates a third of its
+      inner cells ((n - 2)^3 of n^3), so only the part of each round's wire time beyond that
+      third shows; without overlap (AGGLO_OVERLAP=0) all of it does. MPI's software overhead
+      is left out, and the network is taken to move the bytes without the CPU (RDMA).
     - One rank per share of 8 cores (e.g. an 8-core socket or a NUMA domain) whose OpenMP
       threads run the kernel at cores_per_rank times the rate measured here on one core
       (optimistic where the memory bandwidth of the socket saturates first), and the rank has
       the whole 100 Gbit/s, 2 us port to itself (one rank per node, or a port per rank).
-    - The copies (packing, unpacking; on a cluster the network card moves the bytes) cost
-      copy_ns_per_byte per byte sent, measured on one core here (COPY_NS_PER_BYTE), divided by
-      copy_speedup = 4 for the 8 cores of a rank (the copies are OpenMP loops, memory-bound).
     - t_kernel = n^3 / (mlups_per_core * 1e6 * cores_per_rank); fraction = t_halo /
-      (t_kernel + t_halo), t_halo = wire time + copies.
+      (t_kernel + t_halo), t_halo = the wire time that shows + copies.
     Returns (halo_bytes, halo / populations of the block (19 values per cell), t_kernel,
     t_halo, fraction).
     """
     faces = [n * n, (n + 2) * n, (n + 2) * (n + 2)]
     halo = sum(2 * HALO_Q * value_bytes * f for f in faces)
     bandwidth = bandwidth_bits / 8.0
-    t_halo = sum(latency + 2 * HALO_Q * value_bytes * f / bandwidth for f in faces)
-    t_halo += halo * copy_ns_per_byte * 1e-9 / copy_speedup
     t_kernel = n ** 3 / (mlups_per_core * 1e6 * cores_per_rank)
+    hidden = t_kernel * (n - 2) ** 3 / n ** 3 / 3.0 if overlap else 0.0
+    t_halo = sum(max(0.0, latency + 2 * HALO_Q * value_bytes * f / bandwidth - hidden) for f in faces)
+    t_halo += halo * copy_ns_per_byte * 1e-9 / copy_speedup
     share = halo / (LB_Q * value_bytes * n ** 3)
     return halo, share, t_kernel, t_halo, t_halo / (t_kernel + t_halo)
 
@@ -208,33 +219,35 @@ def main():
             scene.write_text(SCENE.format(l=round(n * 1e-4, 10)))
             steps = max(10, int(args.updates / n ** 3))
             base = None
-            for label, ranks, threads, sets in CONFIGS:
+            for label, ranks, threads, sets, extra_env in CONFIGS:
                 halo = halo_per_rank(coupler, scene, ranks, sets) if ranks > 1 else 0
-                best, best_mlups = float("inf"), 0.0
+                best, best_mlups, best_ex = float("inf"), 0.0, 0.0
                 for rep in range(args.reps):
-                    wf, mlups, got = run_once(coupler, scene, tmp / "out.h5", steps, ranks, threads, sets)
+                    wf, mlups, got, ex = run_once(coupler, scene, tmp / "out.h5", steps, ranks, threads, sets,
+                                                  extra_env)
                     if got != ranks:
                         sys.exit(f"mpi_scaling: the run of {label} ran on {got} ranks")
                     if wf / steps < best:
-                        best, best_mlups = wf / steps, mlups
+                        best, best_mlups, best_ex = wf / steps, mlups, ex / steps
                 if base is None:
                     base = best
                 cores = ranks * threads
                 rows.append({"cells": f"{n}^3", "config": label, "ranks": ranks, "threads": threads,
                              "steps": steps, "time_per_step_s": best, "mlups": best_mlups,
                              "efficiency": base / (cores * best),
-                             "halo_bytes_per_rank": halo})
+                             "halo_bytes_per_rank": halo, "exchange_s_per_step": best_ex})
                 r = rows[-1]
-                print(f"  {r['cells']:>6} {label:<26} {best:.5f} s/step  {best_mlups:7.2f} MLUPS", flush=True)
+                print(f"  {r['cells']:>6} {label:<26} {best:.5f} s/step  {best_mlups:7.2f} MLUPS  "
+                      f"exchange {1e3 * best_ex:.3f} ms/step", flush=True)
     after = uptime()
     print("after: ", after)
 
     print()
     print(f"{'cells':>6}  {'configuration':<26} {'steps':>5} {'s/step':>9} {'MLUPS':>8} {'efficiency':>10} "
-          f"{'halo B/step/rank':>16}")
+          f"{'halo B/step/rank':>16} {'exchange ms/step':>16}")
     for r in rows:
         print(f"{r['cells']:>6}  {r['config']:<26} {r['steps']:>5} {r['time_per_step_s']:>9.5f} {r['mlups']:>8.2f} "
-              f"{r['efficiency']:>10.3f} {r['halo_bytes_per_rank']:>16}")
+              f"{r['efficiency']:>10.3f} {r['halo_bytes_per_rank']:>16} {1e3 * r['exchange_s_per_step']:>16.3f}")
     csv_path = out_dir / "mpi_scaling.csv"
     with open(csv_path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]) + ["load_before", "load_after"])
@@ -259,17 +272,19 @@ def print_model(per_core, largest="the cube"):
     print()
     print(f"model (halo_model in {pathlib.Path(__file__).name}): kernel {per_core:.1f} MLUPS per core "
           f"(1 x 1, {largest}, double, in_place) x 8 cores per rank; 6 face messages per step in 3 rounds of 2 "
-          "(one per axis), a round = 2 us + 2 x face bytes / 100 Gbit/s, copies 1 ns per byte sent / 4; no overlap "
-          "with the kernel")
+          "(one per axis), a round on the wire = 2 us + 2 x face bytes / 100 Gbit/s, copies 1 ns per byte sent / 4; "
+          "with the overlap of the code (each round behind a third of the inner update) and without it")
     print(f"{'block':>7} {'halo MB/step/rank':>18} {'halo/pops':>10} {'t_kernel ms':>12} {'t_halo ms':>10} "
-          f"{'halo share':>10}")
+          f"{'halo share':>10} {'t_halo no overlap':>18} {'share':>7}")
     model = []
     for n in (64, 128, 256):
         halo, share, tk, th, frac = halo_model(n, per_core)
+        _, _, _, th0, frac0 = halo_model(n, per_core, overlap=False)
         model.append({"block": f"{n}^3", "halo_bytes_per_rank": halo, "halo_over_populations": share,
-                      "t_kernel_s": tk, "t_halo_s": th, "halo_fraction": frac, "mlups_per_core": per_core})
+                      "t_kernel_s": tk, "t_halo_s": th, "halo_fraction": frac, "t_halo_no_overlap_s": th0,
+                      "halo_fraction_no_overlap": frac0, "mlups_per_core": per_core})
         print(f"{n:>5}^3 {halo / 1e6:>18.3f} {100 * share:>9.2f}% {1e3 * tk:>12.3f} {1e3 * th:>10.4f} "
-              f"{100 * frac:>9.2f}%")
+              f"{100 * frac:>9.2f}% {1e3 * th0:>18.4f} {100 * frac0:>6.2f}%")
     return model
 
 

@@ -180,6 +180,117 @@ static void test_magic_parameter(void)
     }
 }
 
+/* The kernel on boxes that tile the block (fluid.c step_overlapped: inner
+ * cells, then the outer layer) gives the very bits of one call over every
+ * cell: the tiles cut rows at columns that are not multiples of the vector
+ * width, and with two arrays the whole-row pass is followed, as in the
+ * overlapped step, by a second computation of columns 1 and n. In place the
+ * tiles must not overlap (a cell updated twice would take its own output),
+ * so there they are a partition; both kernels (push, local) are run. */
+static void update(const grid_t *g, const kernel_params_t *kp, int two, int single, void *a, void *b, int push,
+                   const kernel_box_t *box)
+{
+    if (two) {
+        if (single) {
+            kernel_stream_collide_f32(g, kp, a, b, box);
+        } else {
+            kernel_stream_collide(g, kp, a, b, box);
+        }
+    } else if (single) {
+        kernel_in_place_f32(g, kp, a, push, box);
+    } else {
+        kernel_in_place(g, kp, a, push, box);
+    }
+}
+
+static void tiles_equal_one_call(int two, int single)
+{
+    const int n[3] = {19, 7, 9};
+    grid_t g;
+    grid_init(&g, n);
+    const kernel_params_t kp = {1.0 / 0.8, kernel_omega_minus(1.0 / 0.8, 0.25), {1e-5, -2e-5, 3e-5}};
+    const size_t es = single ? sizeof(float) : sizeof(double), bytes = (size_t)LB_Q * g.stride * es;
+    unsigned char *a = aligned_alloc(64, bytes), *b = aligned_alloc(64, bytes);
+    unsigned char *a2 = aligned_alloc(64, bytes), *b2 = aligned_alloc(64, bytes);
+    CU_ASSERT_FATAL(a != NULL && b != NULL && a2 != NULL && b2 != NULL);
+    srand(777);
+    for (size_t i = 0; i < (size_t)LB_Q * g.stride; i++) {
+        const double v = 0.01 * ((double)rand() / RAND_MAX - 0.5); /* single: f - w; double: any values */
+        if (single) {
+            ((float *)a)[i] = (float)v;
+        } else {
+            ((double *)a)[i] = 0.05 + v;
+        }
+    }
+    memcpy(a2, a, bytes);
+    unsigned char *orig = malloc(bytes);
+    CU_ASSERT_FATAL(orig != NULL);
+    memcpy(orig, a, bytes);
+    memset(b, 0, bytes);
+    memset(b2, 0, bytes);
+    /* inner cells in slices, then the six pieces of the outer layer */
+    const int n0 = n[0], n1 = n[1], n2 = n[2];
+    kernel_box_t tiles[16];
+    int nt = 0;
+    for (int z = 2; z <= n2 - 1; z += 3) {
+        const int x_lo = two ? 1 : 2, x_hi = two ? n0 : n0 - 1;
+        tiles[nt++] = (kernel_box_t){{x_lo, 2, z}, {x_hi, n1 - 1, z + 2 < n2 - 1 ? z + 2 : n2 - 1}};
+    }
+    const kernel_box_t outer[7] = {
+        {{1, 1, 1}, {n0, n1, 1}},           {{1, 1, n2}, {n0, n1, n2}},          {{1, 1, 2}, {n0, 1, n2 - 1}},
+        {{1, n1, 2}, {n0, n1, n2 - 1}},     {{1, 2, 2}, {1, n1 - 1, n2 - 1}},    {{n0, 2, 2}, {n0, n1 - 1, n2 - 1}},
+    };
+    for (int i = 0; i < 6; i++) {
+        tiles[nt++] = outer[i];
+    }
+    for (int step = 0; step < (two ? 1 : 2); step++) {
+        const int push = step == 0;
+        update(&g, &kp, two, single, a, b, push, NULL);
+        for (int i = 0; i < nt; i++) {
+            update(&g, &kp, two, single, a2, b2, push, &tiles[i]);
+        }
+    }
+    /* interior cells with two arrays (the whole-row pass fills ghost columns
+     * too); in place every slot, ghosts included (the push kernel writes them) */
+    const unsigned char *r = two ? b : a, *t = two ? b2 : a2;
+    long differ = 0;
+    for (int q = 0; q < LB_Q; q++) {
+        for (int z = two ? 1 : 0; z <= (two ? n2 : n2 + 1); z++) {
+            for (int y = two ? 1 : 0; y <= (two ? n1 : n1 + 1); y++) {
+                const size_t row = (size_t)q * g.stride + grid_index(&g, two ? 1 : 0, y, z);
+                const int len = two ? n0 : n0 + 2;
+                differ += memcmp(r + row * es, t + row * es, (size_t)len * es) != 0;
+            }
+        }
+    }
+    CU_ASSERT_EQUAL(differ, 0);
+    /* and the tiles did update every cell: no value of an interior row is still the input's */
+    long same = 0;
+    for (int z = 1; z <= n2; z++) {
+        for (int y = 1; y <= n1; y++) {
+            for (int x = 1; x <= n0; x++) {
+                const size_t i = (size_t)3 * g.stride + grid_index(&g, x, y, z); /* population 3, any */
+                same += memcmp(t + i * es, orig + i * es, es) == 0;
+            }
+        }
+    }
+    CU_ASSERT_EQUAL(same, 0);
+    free(orig);
+    free(a);
+    free(b);
+    free(a2);
+    free(b2);
+}
+
+static void test_tiles_equal_one_call(void)
+{
+    for (int two = 0; two < 2; two++) {
+        for (int single = 0; single < 2; single++) {
+            tiles_equal_one_call(two, single);
+        }
+    }
+}
+
 void kernel_register_tests(void)
 {
     CU_pSuite s = CU_add_suite("kernel", NULL, NULL);
@@ -191,4 +302,6 @@ void kernel_register_tests(void)
                 test_single_equals_reference);
     CU_add_test(s, "kernels without a body force equal the reference kernel", test_unforced_equals_reference);
     CU_add_test(s, "TRT magic parameter", test_magic_parameter);
+    CU_add_test(s, "the kernels on tiles of the block (inner, outer layer) equal one call, bit for bit",
+                test_tiles_equal_one_call);
 }

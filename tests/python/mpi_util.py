@@ -26,10 +26,13 @@ def coupler_command(ranks, *args):
             str(COUPLER), *map(str, args)]
 
 
-def run_coupler(ranks, *args, timeout=600):
-    """coupler_command run to its end with one thread per rank; the CompletedProcess (text)."""
-    return subprocess.run(coupler_command(ranks, *args), capture_output=True, text=True, env=env1(),
-                          timeout=timeout)
+def run_coupler(ranks, *args, timeout=600, env=None):
+    """coupler_command run to its end with one thread per rank (and the variables of env, which
+    mpirun passes on); the CompletedProcess (text)."""
+    cmd = coupler_command(ranks, *args)
+    if ranks > 1 and env:
+        cmd[1:1] = [a for k in env for a in ("-x", k)]
+    return subprocess.run(cmd, capture_output=True, text=True, env=env1(**(env or {})), timeout=timeout)
 
 
 # A free sphere (radius 4.5 cells, density ratio 2) settling from rest in a
