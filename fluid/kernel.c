@@ -269,11 +269,14 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
     for (int q = 0; q < LB_Q; q++) {
         off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
     }
-    /* whole rows: the allocated row from column 0, ghost and padding
-     * columns included (aligned blocks for the non-temporal stores); a part
-     * of rows: its cells, ordinary stores */
-    const int rows = lo[0] == 1 && hi[0] == g->n[0];
-    const int x_first = rows ? 0 : lo[0], x_end = rows ? g->s[0] : hi[0] + 1;
+    /* a box that starts and ends on cache lines (row ends widened to the
+     * ghost and padding columns, computed and never read) goes in aligned
+     * blocks with non-temporal stores; any other part of rows, cell by cell
+     * with ordinary stores */
+    const int x_first = lo[0] == 1 ? 0 : lo[0], x_end = hi[0] == g->n[0] ? g->s[0] : hi[0] + 1;
+#if !defined(KERNEL_SINGLE)
+    const int rows = x_first % GRID_ALIGN == 0 && x_end % GRID_ALIGN == 0;
+#endif
     const size_t ncells = g->stride;
 #pragma omp parallel
     {

@@ -15,9 +15,11 @@
 
 /* The cells one call updates: interior cells lo..hi (allocated coordinates,
  * inclusive). fluid.c updates a block's inner cells while its halo is in
- * flight and its outer layer afterwards (README "Several MPI ranks"). A
- * box of whole rows (lo[0] = 1, hi[0] = n[0]) goes through the row path
- * above; a part of rows gets ordinary stores. NULL: every interior cell. */
+ * flight and its outer layer afterwards (README "Several MPI ranks"). With
+ * two arrays in double, rows that start and end on cache lines (lo[0] 1 or
+ * a multiple of GRID_ALIGN, hi[0] n[0] or one less than a multiple) go
+ * through the block path above; other parts of rows get ordinary stores.
+ * NULL: every interior cell. */
 typedef struct {
     int lo[3], hi[3];
 } kernel_box_t;

@@ -719,7 +719,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                      * correction for this one step (with it, a moving sphere's drag
                      * fluctuated 16 times more) */
                     l->fresh = (flags[i] & FLAG_FRESH) != 0;
-                    l->outer = !inner;
+                    /* written after the exchange: a cell of an outer row (fluid.c step_overlapped) */
+                    l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
                     const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
                     boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, l->a, l->b,

@@ -85,7 +85,7 @@ typedef struct {
     double rw[3];         /* wall point minus sphere centre */
     int q, sphere;
     int fresh;            /* x_f was uncovered this step: no multireflection correction */
-    int outer;            /* x_f lies in the outer layer of the block (spheres_fill) */
+    int outer;            /* x_f lies in an outer row of the block: y or z at its faces (spheres_fill) */
     double fnew;          /* outer: the value to write, held back (SPHERES_HOLD_OUTER) */
     double delta;
 } sphere_link_t;
@@ -140,11 +140,11 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
  * arrays, prev is the other array (PULL state: the previous step's values
  * that x_f pulled); in place (prev NULL) they follow from the post-collision
  * ones (spheres.c). A link writes what its x_f receives. With
- * SPHERES_HOLD_OUTER the links of cells in the outer layer of the block
- * keep their values until spheres_write_outer: their slots are written by
- * the halo exchange too, which must come first, while every link must read
- * before the update of the inner cells (in place it overwrites values the
- * links read): fluid.c. */
+ * SPHERES_HOLD_OUTER the links of cells in outer rows (y or z at a face of
+ * the block) keep their values until spheres_write_outer: their slots are written by the
+ * halo exchange too, which must come first, while every link must read
+ * before the update of the inner rows (in place it overwrites values the
+ * links read): fluid.c step_overlapped. */
 typedef enum { SPHERES_ALL, SPHERES_HOLD_OUTER } spheres_part_t;
 void spheres_fill(spheres_t *sp, const pops_t *p, const pops_t *prev, spheres_part_t part);
 void spheres_write_outer(spheres_t *sp, const pops_t *p);

@@ -12,6 +12,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 static int face_rank(face_type_t t)
 {
@@ -84,6 +85,45 @@ static status_t push_copy(walls_t *w, size_t *cap, size_t cell, int q, size_t sr
     w->copies[w->ncopies++] = (copy_link_t){(uint32_t)cell, (uint32_t)src, (uint8_t)q, (uint8_t)sq};
     return STATUS_OK;
 }
+
+/* 1 when cell i lies in an inner row: y and z two or more cells from the
+ * block's faces (walls.h). */
+static int inner_row(const grid_t *g, size_t i)
+{
+    const int y = (int)(i / (size_t)g->s[0] % (size_t)g->s[1]), z = (int)(i / ((size_t)g->s[0] * (size_t)g->s[1]));
+    return y >= 2 && y <= g->n[1] - 1 && z >= 2 && z <= g->n[2] - 1;
+}
+
+/* The links and copies of cells in inner rows first, each part in the
+ * order it was built (cell order): the two runs of walls_links. */
+#define PARTITION(T, arr, n, nearly)                                 \
+    do {                                                             \
+        T *tmp = malloc(((n) > 0 ? (n) : 1) * sizeof(T));            \
+        if (tmp == NULL) {                                           \
+            return 0;                                                \
+        }                                                            \
+        size_t k = 0;                                                \
+        for (int early = 1; early >= 0; early--) {                   \
+            for (size_t i = 0; i < (n); i++) {                       \
+                if (inner_row(g, (arr)[i].cell) == early) {          \
+                    tmp[k++] = (arr)[i];                             \
+                }                                                    \
+            }                                                        \
+            if (early) {                                             \
+                (nearly) = k;                                        \
+            }                                                        \
+        }                                                            \
+        memcpy((arr), tmp, (n) * sizeof(T));                         \
+        free(tmp);                                                   \
+    } while (0)
+
+static int partition(walls_t *w, const grid_t *g)
+{
+    PARTITION(ghost_link_t, w->links, w->nlinks, w->nlinks_early);
+    PARTITION(copy_link_t, w->copies, w->ncopies, w->ncopies_early);
+    return 1;
+}
+#undef PARTITION
 
 status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_t *u, decomp_t *d, const log_t *log)
 {
@@ -202,7 +242,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
         }
     }
     w->pre = malloc((w->nlinks > 0 ? w->nlinks : 1) * sizeof *w->pre);
-    if (w->pre == NULL) {
+    if (w->pre == NULL || !partition(w, g)) {
         walls_free(w);
         return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the moments of %zu wall links", w->nlinks);
     }
@@ -296,11 +336,52 @@ int walls_halo_axes(const walls_t *w, const pops_t *p, int axes[3])
     return m;
 }
 
-void walls_halo_begin(const walls_t *w, const grid_t *g, const pops_t *p, int a)
+/* The rows (b, c) of the x axis's copy that are not inner rows, as four
+ * boxes of lo..hi: y outside 2 .. n - 1 at any z, then z outside at inner y. */
+static void x_outer_rows(const grid_t *g, const int lo[3], const int hi[3], int blo[4][3], int bhi[4][3])
+{
+    for (int k = 0; k < 4; k++) {
+        memcpy(blo[k], lo, 3 * sizeof(int));
+        memcpy(bhi[k], hi, 3 * sizeof(int));
+    }
+    bhi[0][1] = 1;
+    blo[1][1] = g->n[1];
+    for (int k = 2; k < 4; k++) {
+        blo[k][1] = 2;
+        bhi[k][1] = g->n[1] - 1;
+    }
+    bhi[2][2] = 1;
+    blo[3][2] = g->n[2];
+}
+
+void walls_halo_early(const walls_t *w, const grid_t *g, const pops_t *p)
+{
+    if (!w->periodic[0]) {
+        return;
+    }
+    int lo[3], hi[3];
+    decomp_exchange_range(w->d, g->n, 0, lo, hi);
+    if (p->state == LAYOUT_PUSHED) {
+        lo[1] = lo[2] = 2;
+        hi[1] = g->n[1] - 1;
+        hi[2] = g->n[2] - 1;
+    }
+    periodic_axis(g, p, 0, lo, hi);
+}
+
+void walls_halo_begin(const walls_t *w, const grid_t *g, const pops_t *p, int a, int rest)
 {
     int lo[3], hi[3];
     decomp_exchange_range(w->d, g->n, a, lo, hi);
-    if (w->periodic[a]) {
+    if (w->periodic[a] && rest && a == 0) {
+        if (p->state == LAYOUT_PUSHED) {
+            int blo[4][3], bhi[4][3];
+            x_outer_rows(g, lo, hi, blo, bhi);
+            for (int k = 0; k < 4; k++) {
+                periodic_axis(g, p, 0, blo[k], bhi[k]);
+            }
+        }
+    } else if (w->periodic[a]) {
         periodic_axis(g, p, a, lo, hi);
     } else {
         /* the same copy with the other side on another rank */
@@ -321,10 +402,10 @@ void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
     int axes[3];
     const int m = walls_halo_axes(w, p, axes);
     for (int k = 0; k < m; k++) {
-        walls_halo_begin(w, g, p, axes[k]);
+        walls_halo_begin(w, g, p, axes[k], 0);
         walls_halo_end(w, g, p, axes[k]);
     }
-    walls_links(w, p);
+    walls_links(w, p, WALLS_ALL);
 }
 
 void walls_links_prepare(const walls_t *w, const pops_t *p)
@@ -356,19 +437,22 @@ void walls_links_prepare(const walls_t *w, const pops_t *p)
     }
 }
 
-void walls_links(const walls_t *w, const pops_t *p)
+void walls_links(const walls_t *w, const pops_t *p, walls_part_t part)
 {
-    const ptrdiff_t nc = (ptrdiff_t)w->ncopies, n = (ptrdiff_t)w->nlinks;
+    const ptrdiff_t c0 = part == WALLS_LATE ? (ptrdiff_t)w->ncopies_early : 0;
+    const ptrdiff_t nc = part == WALLS_EARLY ? (ptrdiff_t)w->ncopies_early : (ptrdiff_t)w->ncopies;
+    const ptrdiff_t l0 = part == WALLS_LATE ? (ptrdiff_t)w->nlinks_early : 0;
+    const ptrdiff_t n = part == WALLS_EARLY ? (ptrdiff_t)w->nlinks_early : (ptrdiff_t)w->nlinks;
     const copy_link_t *restrict cp = w->copies;
 #pragma omp parallel
     {
 #pragma omp for schedule(static) nowait
-    for (ptrdiff_t i = 0; i < nc; i++) {
+    for (ptrdiff_t i = c0; i < nc; i++) {
         /* the mirrored direction has the same weight */
         pops_copy(p, pops_in_slot(p, cp[i].q, cp[i].cell), pops_post_slot(p, cp[i].sq, cp[i].src));
     }
 #pragma omp for schedule(static)
-    for (ptrdiff_t i = 0; i < n; i++) {
+    for (ptrdiff_t i = l0; i < n; i++) {
         const ghost_link_t *l = &w->links[i];
         const size_t dst = pops_in_slot(p, l->q, l->cell);
         const double bounced = pops_post(p, lb_opposite(l->q), l->cell);

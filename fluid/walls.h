@@ -59,6 +59,7 @@ typedef struct {
     size_t nlinks;
     copy_link_t *copies; /* free-slip copy links in cell order: a tight, cache-friendly loop */
     size_t ncopies;
+    size_t nlinks_early, ncopies_early; /* the first ones: cells in inner rows (walls_links) */
     int periodic[3];     /* periodic axes with one rank: filled by a copy of the ghost layers, no list (walls.c) */
     decomp_t *d;         /* the block (not owned): faces to other ranks are filled by its exchange */
 } walls_t;
@@ -70,19 +71,32 @@ void walls_free(walls_t *w);
 /* Writes the populations that interior cells receive from ghost cells: the
  * periodic copy and the exchange with other ranks first, then the links. */
 void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p);
-/* walls_fill in its steps, for the update of the inner cells while the
- * exchange is in flight (fluid.c): the moments the links read (before any
- * cell is updated: in place, the inner cells' update overwrites the
- * post-collision values of the outer ones that it pulls); the axes whose
- * ghost layers are copied or exchanged, in the order the layout state
- * needs (returns how many); each axis begun (the local periodic copy, or
- * the exchange posted) and ended (received) in that order; then the links.
- * Every step writes only populations that the cells of the outer layer
- * receive (layout.h in_slot), and reads only what no inner cell takes. */
+/* walls_fill in its steps, for the update of the inner rows while the
+ * exchange is in flight (fluid.c step_overlapped; an inner row: y and z
+ * two or more cells from the block's faces):
+ *   walls_links_prepare  the moments the links read, before any cell is
+ *                        updated (in place, that update overwrites the
+ *                        post-collision values of the cells it pulls from);
+ *   walls_halo_early     the local periodic copy of x where the inner rows
+ *                        read it: all of it in the PULL and SWAPPED states
+ *                        (x comes first, nothing it copies depends on
+ *                        another axis); in the PUSHED state (axes z, y, x)
+ *                        the inner rows only;
+ *   walls_links EARLY    the links of cells in inner rows (x faces);
+ *   walls_halo_axes      the axes whose ghost layers are copied or
+ *                        exchanged, in the order the layout state needs
+ *                        (returns how many); each is begun (the local copy,
+ *                        or the exchange posted; rest = 1: without what
+ *                        walls_halo_early did) and ended in that order;
+ *   walls_links LATE     the other links.
+ * walls_halo_early and the early links write only what cells of inner rows
+ * receive, the rest only what cells of other rows receive. */
+typedef enum { WALLS_ALL, WALLS_EARLY, WALLS_LATE } walls_part_t;
 void walls_links_prepare(const walls_t *w, const pops_t *p);
+void walls_halo_early(const walls_t *w, const grid_t *g, const pops_t *p);
 int walls_halo_axes(const walls_t *w, const pops_t *p, int axes[3]);
-void walls_halo_begin(const walls_t *w, const grid_t *g, const pops_t *p, int a);
+void walls_halo_begin(const walls_t *w, const grid_t *g, const pops_t *p, int a, int rest);
 void walls_halo_end(const walls_t *w, const grid_t *g, const pops_t *p, int a);
-void walls_links(const walls_t *w, const pops_t *p);
+void walls_links(const walls_t *w, const pops_t *p, walls_part_t part);
 
 #endif

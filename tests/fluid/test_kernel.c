@@ -181,12 +181,12 @@ static void test_magic_parameter(void)
 }
 
 /* The kernel on boxes that tile the block (fluid.c step_overlapped: inner
- * cells, then the outer layer) gives the very bits of one call over every
- * cell: the tiles cut rows at columns that are not multiples of the vector
- * width, and with two arrays the whole-row pass is followed, as in the
- * overlapped step, by a second computation of columns 1 and n. In place the
- * tiles must not overlap (a cell updated twice would take its own output),
- * so there they are a partition; both kernels (push, local) are run. */
+ * cells in slices, then the outer layer) gives the very bits of one call
+ * over every cell: with the inner columns on whole cache lines (the block
+ * path of the two-array kernel, ghost and padding columns included) and
+ * with columns 1 and n alone (cell by cell). The tiles are a partition: in
+ * place a cell updated twice would take its own output. Both in-place
+ * kernels (push, local) are run. */
 static void update(const grid_t *g, const kernel_params_t *kp, int two, int single, void *a, void *b, int push,
                    const kernel_box_t *box)
 {
@@ -203,7 +203,7 @@ static void update(const grid_t *g, const kernel_params_t *kp, int two, int sing
     }
 }
 
-static void tiles_equal_one_call(int two, int single)
+static void tiles_equal_one_call(int two, int single, int xa)
 {
     const int n[3] = {19, 7, 9};
     grid_t g;
@@ -229,16 +229,15 @@ static void tiles_equal_one_call(int two, int single)
     memset(b, 0, bytes);
     memset(b2, 0, bytes);
     /* inner cells in slices, then the six pieces of the outer layer */
-    const int n0 = n[0], n1 = n[1], n2 = n[2];
+    const int n0 = n[0], n1 = n[1], n2 = n[2], xb = xa == 2 ? n0 - 1 : n0 / 8 * 8 - 1;
     kernel_box_t tiles[16];
     int nt = 0;
     for (int z = 2; z <= n2 - 1; z += 3) {
-        const int x_lo = two ? 1 : 2, x_hi = two ? n0 : n0 - 1;
-        tiles[nt++] = (kernel_box_t){{x_lo, 2, z}, {x_hi, n1 - 1, z + 2 < n2 - 1 ? z + 2 : n2 - 1}};
+        tiles[nt++] = (kernel_box_t){{xa, 2, z}, {xb, n1 - 1, z + 2 < n2 - 1 ? z + 2 : n2 - 1}};
     }
-    const kernel_box_t outer[7] = {
-        {{1, 1, 1}, {n0, n1, 1}},           {{1, 1, n2}, {n0, n1, n2}},          {{1, 1, 2}, {n0, 1, n2 - 1}},
-        {{1, n1, 2}, {n0, n1, n2 - 1}},     {{1, 2, 2}, {1, n1 - 1, n2 - 1}},    {{n0, 2, 2}, {n0, n1 - 1, n2 - 1}},
+    const kernel_box_t outer[6] = {
+        {{1, 1, 1}, {n0, n1, 1}},           {{1, 1, n2}, {n0, n1, n2}},              {{1, 1, 2}, {n0, 1, n2 - 1}},
+        {{1, n1, 2}, {n0, n1, n2 - 1}},     {{1, 2, 2}, {xa - 1, n1 - 1, n2 - 1}},   {{xb + 1, 2, 2}, {n0, n1 - 1, n2 - 1}},
     };
     for (int i = 0; i < 6; i++) {
         tiles[nt++] = outer[i];
@@ -286,7 +285,8 @@ static void test_tiles_equal_one_call(void)
 {
     for (int two = 0; two < 2; two++) {
         for (int single = 0; single < 2; single++) {
-            tiles_equal_one_call(two, single);
+            tiles_equal_one_call(two, single, 8); /* inner columns 8 .. 15 of 19 */
+            tiles_equal_one_call(two, single, 2); /* inner columns 2 .. 18 */
         }
     }
 }

@@ -106,7 +106,8 @@ def box(faces, streaming="in_place", precision="double", collision="trt", cells=
 @pytest.mark.parametrize("streaming", ["in_place", "two_array"])
 def test_every_face_type_same_on_1_2_4_ranks(tmp_path, streaming):
     """Inlet with a parabolic profile, pressure outlet, free slip, no slip and a
-    moving wall, cut along x, then x and y (MPI_Dims_create)."""
+    moving wall, cut along z, then y and z (MPI_Dims_create): the exchange
+    overlaps the update of the inner rows, the x faces' links come before it."""
     assert_identical(run_ranks(tmp_path, box(ALL_FACES, streaming), "faces_" + streaming))
 
 
@@ -118,6 +119,25 @@ def test_periodic_face_across_ranks(tmp_path, ranks):
     n = eval(ranks)[0] * eval(ranks)[1] * eval(ranks)[2]
     outs = run_ranks(tmp_path, box(PERIODIC_X), "per", ranks=(1, n), sets=[f"run.ranks={ranks}"])
     assert_identical(outs)
+
+
+FREE_SLIP_X = """    x_min: {type: free_slip}
+    x_max: {type: free_slip}
+    y_min: {type: periodic}
+    y_max: {type: periodic}
+    z_min: {type: no_slip}
+    z_max: {type: moving_wall, velocity: [4.0e-3, 2.0e-3, 0.0]}"""
+
+
+@pytest.mark.parametrize("streaming", ["in_place", "two_array"])
+def test_free_slip_x_faces_and_periodic_cut(tmp_path, streaming):
+    """Free-slip x faces (copies of the inner rows, before the overlapped
+    exchange; their edges with the moving wall after it) and a periodic y
+    axis cut between ranks."""
+    ref = run_ranks(tmp_path, box(FREE_SLIP_X, streaming), "fsx1_" + streaming, ranks=(1,))
+    two = run_ranks(tmp_path, box(FREE_SLIP_X, streaming), "fsx2_" + streaming, ranks=(2,), sets=["run.ranks=[1, 2, 1]"])
+    four = run_ranks(tmp_path, box(FREE_SLIP_X, streaming), "fsx4_" + streaming, ranks=(4,), sets=["run.ranks=[1, 2, 2]"])
+    assert_identical(ref + two + four)
 
 
 @pytest.mark.parametrize("streaming", ["in_place", "two_array"])
@@ -137,7 +157,7 @@ def test_exchange_in_sequence_same_as_overlapped(tmp_path, streaming):
     before the update of any cell: the same bits as the overlapped step, with
     a moving sphere across the cuts."""
     scene = SETTLE.replace("streaming: in_place", f"streaming: {streaming}")
-    outs = run_ranks(tmp_path, scene, "seq_" + streaming, ranks=(1, 2), sets=["run.ranks=[2, 1, 1]"],
+    outs = run_ranks(tmp_path, scene, "seq_" + streaming, ranks=(1, 2), sets=["run.ranks=[1, 1, 2]"],
                      env={"AGGLO_OVERLAP": "0"})
     assert_identical(outs)
 
