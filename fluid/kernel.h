@@ -1,11 +1,12 @@
 /* kernel.h — the fused pull stream–collide step (the hot loop).
  *
- * One call advances every interior row by one time step: each cell pulls
+ * One call advances the cells of a box (kernel_box_t below; all interior
+ * cells without one) by one time step: each cell pulls
  * f_q from its neighbour at x - c_q in src (post-collision values of the
  * previous step, with ghost and solid neighbours already filled by the
  * boundary stage), collides with TRT (BGK when omega_minus == omega_plus)
  * including Guo forcing, and writes post-collision values to dst.
- * Ghost columns of interior rows are computed too (their values are never
+ * For whole rows the ghost columns are computed too (their values are never
  * read before the boundary stage overwrites them); this keeps every row
  * aligned for non-temporal stores. */
 #ifndef FLUID_KERNEL_H
