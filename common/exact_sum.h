@@ -44,16 +44,20 @@ static inline void xsum_add(xsum_t *s, double v)
     /* v 2^88 split from the top: each step removes whole multiples of the
      * limb's weight, which is exact (the difference keeps v's lower bits) */
     double u = v * 0x1p88;
-    const double t3 = trunc(u * 0x1p-96);
-    u -= t3 * 0x1p96;
-    const double t2 = trunc(u * 0x1p-64);
-    u -= t2 * 0x1p64;
-    const double t1 = trunc(u * 0x1p-32);
-    u -= t1 * 0x1p32;
-    s->l[3] += (int64_t)t3;
-    s->l[2] += (int64_t)t2;
-    s->l[1] += (int64_t)t1;
-    s->l[0] += (int64_t)nearbyint(u); /* the one rounding */
+    /* truncations by conversion (|u 2^-96| < 2^32: exact, and no libm call
+     * on a baseline x86-64 build) */
+    const int64_t i3 = (int64_t)(u * 0x1p-96);
+    u -= (double)i3 * 0x1p96;
+    const int64_t i2 = (int64_t)(u * 0x1p-64);
+    u -= (double)i2 * 0x1p64;
+    const int64_t i1 = (int64_t)(u * 0x1p-32);
+    u -= (double)i1 * 0x1p32;
+    s->l[3] += i3;
+    s->l[2] += i2;
+    s->l[1] += i1;
+    /* the one rounding, to nearest even (|u| < 2^32: adding and removing
+     * 1.5 2^52 rounds to an integer, as nearbyint does in the default mode) */
+    s->l[0] += (int64_t)((u + 0x1.8p52) - 0x1.8p52);
 }
 
 static inline void xsum_merge(xsum_t *s, const xsum_t *o)

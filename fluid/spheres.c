@@ -57,8 +57,8 @@ int spheres_locate(const int lo[3], const int n[3], const int open[6], const int
     int owned = 1;
     for (int a = 0; a < 3; a++) {
         int g = X[a] - 1; /* global cell, 0-based */
-        if (periodic[a]) {
-            g = (g % N[a] + N[a]) % N[a];
+        if (periodic[a] && (g < 0 || g >= N[a])) {
+            g = g < 0 && g >= -N[a] ? g + N[a] : g >= N[a] && g < 2 * N[a] ? g - N[a] : (g % N[a] + N[a]) % N[a];
         }
         int y = g - lo[a] + 1;
         if (periodic[a] && (open[2 * a] || open[2 * a + 1])) {
@@ -107,6 +107,11 @@ static void global_of(const spheres_t *sp, const int Y[3], int X[3])
 
 int spheres_cell(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int Y[3], size_t *ref, uint8_t *flag)
 {
+    if (Y[0] >= 1 && Y[0] <= sp->nb[0] && Y[1] >= 1 && Y[1] <= sp->nb[1] && Y[2] >= 1 && Y[2] <= sp->nb[2]) {
+        *ref = grid_index(g, Y[0], Y[1], Y[2]); /* a cell of the block: what spheres_locate gives */
+        *flag = flags[*ref];
+        return 1;
+    }
     int X[3], Z[3];
     global_of(sp, Y, X);
     const int where = spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Z);

@@ -28,6 +28,7 @@ int main(int argc, char **argv)
     fluid_register_tests(validate);
     scene_register_tests();
     scene_bad_register_tests();
+    exact_sum_register_tests();
     rigid_register_tests();
     CU_basic_set_mode(CU_BRM_VERBOSE);
     if (only != NULL) {

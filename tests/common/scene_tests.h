@@ -8,6 +8,9 @@ void scene_register_tests(void);
 /* Adds the table of bad scenes (test_scene_bad.c). */
 void scene_bad_register_tests(void);
 
+/* Adds the "exact_sum" suite (test_exact_sum.c: common/exact_sum.h). */
+void exact_sum_register_tests(void);
+
 /* The base scene of the scene tests (26 lines, loads with STATUS_OK). */
 extern const char scene_test_base[];
 
