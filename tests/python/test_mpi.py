@@ -237,12 +237,15 @@ run:
 """
 
 
-@pytest.mark.parametrize("ranks", ["[2, 1, 1]", "[4, 1, 1]", "[2, 2, 1]"])
+@pytest.mark.parametrize("ranks", ["[2, 1, 1]", "[4, 1, 1]", "[2, 2, 1]", "[1, 2, 2]"])
 def test_body_crosses_periodic_face_across_ranks(tmp_path, ranks):
     """A turning dimer moves 18 cells along the periodic x axis, across the
     periodic face, which is cut between the first and the last rank along x
     (multireflection: links read two cells back; extrapolation refill: the
-    refill reads two cells along the normal), through every block."""
+    refill reads two cells along the normal), through every block. With
+    [1, 2, 2] x stays whole (the local periodic copy) and the exchange
+    overlaps the update of the inner rows, with the dimer's links in outer
+    rows and across the cuts."""
     n = eval(ranks)[0] * eval(ranks)[1] * eval(ranks)[2]
     assert_identical(run_ranks(tmp_path, CROSS, "cross", ranks=(1, n), sets=[f"run.ranks={ranks}"]))
 
