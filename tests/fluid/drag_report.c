@@ -119,6 +119,12 @@ int drag_plan_parse(drag_plan_t *plan, int argc, char **argv)
             plan->collisions[0] = w[11] == 'b' ? COLLISION_BGK : COLLISION_TRT;
         } else if (!strncmp(w, "positions=", 10)) {
             plan->npositions = atoi(w + 10);
+        } else if (!strncmp(w, "magic=", 6)) {
+            char *end;
+            test_box_magic = strtod(w + 6, &end);
+            if (*end != '\0' || !(test_box_magic > 0.0)) {
+                return i + 1;
+            }
         } else if (!strncmp(w, "schemes=", 8)) {
             char buf[256];
             snprintf(buf, sizeof buf, "%s", w + 8);
@@ -168,10 +174,10 @@ int drag_report(const char *dir, const drag_plan_t *plan)
     for (int o = 0; o < 2; o++) {
         fprintf(outs[o],
                 "# drag of a fixed sphere in a simple cubic array, D/L = 1/2 (Sangani & Acrivos 1982, K = 2.84202),\n"
-                "# TRT Lambda 3/16 (or BGK), %d centre positions in a cell (corner, centre, %d random, seed %llu);\n"
+                "# TRT Lambda %.6g (or BGK), %d centre positions in a cell (corner, centre, %d random, seed %llu);\n"
                 "# K/K_SA - 1 in %%: flux definition K = f L^3/(6 pi mu a U) (mean, worst |.|, max-min), and\n"
                 "# momentum exchange K = (F + f 4/3 pi a^3)/(6 pi mu a U) beside it\n",
-                plan->npositions, plan->npositions - 2, DRAG_SEED);
+                test_box_magic, plan->npositions, plan->npositions - 2, DRAG_SEED);
         fprintf(outs[o], "%-16s %-4s %6s %5s %9s %9s %9s %9s %9s %9s %8s\n", "scheme", "op", "radius", "tau", "mean", "worst",
                 "spread", "mean_m", "worst_m", "spread_m", "seconds");
     }

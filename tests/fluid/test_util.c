@@ -6,6 +6,7 @@
 #include <string.h>
 
 precision_t test_box_precision = PRECISION_DOUBLE;
+double test_box_magic = 3.0 / 16.0;
 
 scene_t test_box(int nx, int ny, int nz, double tau, collision_t collision)
 {
@@ -24,7 +25,7 @@ scene_t test_box(int nx, int ny, int nz, double tau, collision_t collision)
     s.fluid.viscosity = (tau - 0.5) / 3.0;
     s.fluid.dt = 1.0;
     s.fluid.collision = collision;
-    s.fluid.magic = 3.0 / 16.0;
+    s.fluid.magic = test_box_magic;
     s.fluid.precision = test_box_precision;
     s.run.end_time = 1.0;
     s.run.output_interval = 1.0;

@@ -10,6 +10,8 @@
 /* A periodic box of nx*ny*nz cells with relaxation time tau. */
 /* The precision of the scenes test_box makes (the reports' precision= option). */
 extern precision_t test_box_precision;
+/* TRT magic parameter of test_box (sphere_report drag magic=...; 3/16 unless set) */
+extern double test_box_magic;
 scene_t test_box(int nx, int ny, int nz, double tau, collision_t collision);
 /* Creates the fluid or fails the current test; NULL on failure. */
 fluid_t *test_fluid(const scene_t *s);
