@@ -440,12 +440,17 @@ static void step_overlapped(fluid_t *fl, const pops_t *p, const pops_t *prev)
     if (fl->spheres.n > 0) {
         spheres_fill(&fl->spheres, p, prev, SPHERES_HOLD_OUTER);
     }
-    int axes[3];
+    /* the inner rows in slices while the exchanges with other ranks are in
+     * flight (a local periodic copy has nothing in flight) */
+    int axes[3], remote = 0;
     const int m = walls_halo_axes(&fl->walls, p, axes);
-    const int nslice = m * OVERLAP_SLICES, zlen = n2 - 2;
     for (int k = 0; k < m; k++) {
+        remote += !fl->walls.periodic[axes[k]];
+    }
+    const int nslice = remote * OVERLAP_SLICES, zlen = n2 - 2;
+    for (int k = 0, j = 0; k < m; k++) {
         walls_halo_begin(&fl->walls, g, p, axes[k], 1);
-        for (int j = k * OVERLAP_SLICES; j < (k + 1) * OVERLAP_SLICES; j++) {
+        for (int s = 0; s < OVERLAP_SLICES && !fl->walls.periodic[axes[k]]; s++, j++) {
             kernel_box_t b = in;
             b.lo[2] = in.lo[2] + zlen * j / nslice;
             b.hi[2] = in.lo[2] + zlen * (j + 1) / nslice - 1;

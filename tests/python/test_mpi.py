@@ -143,9 +143,9 @@ def test_free_slip_x_faces_and_periodic_cut(tmp_path, streaming):
 @pytest.mark.parametrize("streaming", ["in_place", "two_array"])
 def test_blocks_without_inner_cells(tmp_path, streaming):
     """Blocks 2 cells thick along y (a quasi-2D scene) cut along z have no
-    cells two away from every face: the overlapped step (fluid.c) then
-    updates all cells after the exchange; the moving wall and the inlet
-    make the flow three-dimensional within the block."""
+    inner rows (y and z two cells from every face): fluid_step runs them in
+    sequence, not overlapped; the moving wall and the inlet make the flow
+    three-dimensional within the block."""
     outs = run_ranks(tmp_path, box(ALL_FACES, streaming, cells=(16, 2, 12)), "thin_" + streaming, ranks=(1, 2),
                      sets=["run.ranks=[1, 1, 2]"])
     assert_identical(outs)
