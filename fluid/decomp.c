@@ -230,18 +230,6 @@ void decomp_free(decomp_t *d)
     d->req = NULL;
 }
 
-/* The directions of axis a with component dir, in q order. */
-static int directions(int a, int dir, int qs[5])
-{
-    int nq = 0;
-    for (int q = 1; q < LB_Q; q++) {
-        if (lb_c[q][a] == dir) {
-            qs[nq++] = q;
-        }
-    }
-    return nq;
-}
-
 /* Copies layer `layer` of axis a (cells lo..hi on the other axes), the
  * directions qs, between the populations and buf (out: to buf). Direction
  * by direction, rows along the faster axis: contiguous runs for x and y
@@ -319,7 +307,7 @@ void decomp_exchange_begin(decomp_t *d, const grid_t *g, const pops_t *p, int a,
             continue;
         }
         int qs[5];
-        const int nq = directions(a, side == 0 ? -1 : 1, qs);
+        const int nq = lb_crossing(a, side == 0 ? -1 : 1, qs);
         const int layer = push ? (side == 0 ? 0 : n + 1) : (side == 0 ? 1 : n);
         layer_copy(g, p, a, layer, lo, hi, qs, nq, d->buf + (size_t)side * bytes, 1);
         MPI_Isend(d->buf + (size_t)side * bytes, (int)bytes, MPI_BYTE, d->nbr[a][side], side, comm_of(d),
@@ -355,7 +343,7 @@ void decomp_exchange_end(decomp_t *d, const grid_t *g, const pops_t *p)
         /* from the lower neighbour: directions c_a = +1, into ghost 0
          * (pull) or layer 1 (push); from the upper one c_a = -1 */
         int qs[5];
-        const int nq = directions(a, side == 0 ? 1 : -1, qs);
+        const int nq = lb_crossing(a, side == 0 ? 1 : -1, qs);
         const int layer = push ? (side == 0 ? 1 : n) : (side == 0 ? 0 : n + 1);
         layer_copy(g, p, a, layer, d->xlo, d->xhi, qs, nq, d->buf + (size_t)(2 + side) * d->xbytes, 0);
     }

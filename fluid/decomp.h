@@ -63,7 +63,7 @@ status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world,
 /* The cells over which the ghost layers of axis a are copied, for a grid of
  * n interior cells (allocated coordinates): the ghost rows of the axes done
  * before a, and, for an exchange with other ranks, of the domain's walls
- * too (walls.c periodic_fill, decomp_exchange_axis, the halo bytes of
+ * too (walls.c walls_halo_begin, decomp_exchange_begin, the halo bytes of
  * decomp_layout). */
 void decomp_exchange_range(const decomp_t *d, const int n[3], int a, int lo[3], int hi[3]);
 /* The block of the rank at coords: global first cell and cells. */
@@ -76,7 +76,7 @@ static inline int decomp_parallel(const decomp_t *d) { return d->comm != NULL; }
 static inline int decomp_exchanged(const decomp_t *d, int a, int side) { return d->nbr[a][side] >= 0; }
 
 /* Exchange of axis a over the cells lo..hi (allocated coordinates, ghosts of
- * the axes done before included: walls.c periodic_fill): the populations
+ * the axes done before included: walls.c walls_halo_begin): the populations
  * that cross the faces of a, in the layout state of p. In two halves, so
  * that the update of the inner cells runs while the messages travel
  * (fluid.c): begin packs the outgoing values and posts the messages,

@@ -24,6 +24,19 @@ static inline int lb_opposite(int q)
     return q == 0 ? 0 : (q <= LB_HALF ? q + LB_HALF : q - LB_HALF);
 }
 
+/* The directions with component dir (+1 or -1) along axis a, in q order:
+ * the 5 that cross a face of a cell. Returns how many. */
+static inline int lb_crossing(int a, int dir, int qs[5])
+{
+    int nq = 0;
+    for (int q = 1; q < LB_Q; q++) {
+        if (lb_c[q][a] == dir) {
+            qs[nq++] = q;
+        }
+    }
+    return nq;
+}
+
 /* Density and momentum of the populations of cell i in a structure-of-arrays
  * field with ncells cells per direction (grid.h). */
 static inline double lb_moments(const double *f, size_t ncells, size_t i, double j[3])

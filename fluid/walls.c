@@ -2,7 +2,7 @@
  *
  * The list is built once: for every interior cell next to a face and every
  * direction q whose upwind neighbour x - c_q is a ghost cell beyond a
- * non-periodic face (periodic faces need no list: periodic_fill). Reads are
+ * non-periodic face (periodic faces need no list: periodic_axis). Reads are
  * from post-collision values of interior cells only and every in_slot is
  * written by at most one link, so the fill is order-independent and runs in
  * parallel. */
@@ -175,7 +175,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                         }
                     }
                     if (!any || best < 0) {
-                        continue; /* interior, or only periodic and exchange faces crossed: periodic_fill */
+                        continue; /* interior, or only periodic and exchange faces crossed: periodic_axis */
                     }
                     ghost_link_t l = {0};
                     l.q = q;
@@ -290,13 +290,7 @@ static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[
     int qs[5], nq = 0;
     for (int side = 0; side < 2; side++) {
         /* ghost at coordinate 0 (side 0) or n + 1 (side 1); its directions */
-        const int dir = push ? (side == 0 ? -1 : 1) : (side == 0 ? 1 : -1);
-        nq = 0;
-        for (int q = 1; q < LB_Q; q++) {
-            if (lb_c[q][a] == dir) {
-                qs[nq++] = q;
-            }
-        }
+        nq = lb_crossing(a, push ? (side == 0 ? -1 : 1) : (side == 0 ? 1 : -1), qs);
         const int ghost = side == 0 ? 0 : n + 1, wrapped = side == 0 ? n : 1;
         int X[3];
         const int b = (a + 1) % 3, c = (a + 2) % 3;

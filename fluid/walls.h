@@ -15,7 +15,7 @@
  * Where a link crosses two non-periodic faces (an edge), the stronger
  * condition wins: no-slip, moving wall, inlet, outlet, free-slip; any of
  * them wins over a periodic face. Periodic faces need no list: their ghost
- * layers are copied (walls.c periodic_fill) before the links are filled. */
+ * layers are copied (walls.c periodic_axis) before the links are filled. */
 #ifndef FLUID_WALLS_H
 #define FLUID_WALLS_H
 

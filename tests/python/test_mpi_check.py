@@ -10,7 +10,7 @@ rules the C code documents:
   ncells their product; each population `stride` values, stride = ncells
   rounded up to 24 mod 512; 19 populations per array (1 array in place, 2
   for two_array), 8 or 4 bytes per value, and 1 byte of flags per cell;
-- halo (fluid/walls.c periodic_fill): for every axis a cut over more than one
+- halo (fluid/walls.c walls_halo_begin): for every axis a cut over more than one
   rank, 5 populations per face cell of each exchanged face, the face spanning
   the other two axes with the ghost rows of the axes before a (x before y
   before z) and of the faces that are domain walls (not exchanged, not a
