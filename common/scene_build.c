@@ -372,7 +372,9 @@ static bool build_connections(ctx_t *c, const raw_scene_t *r, scene_t *s)
 /* Contacts and lubrication. Two defaults follow the scene: contact_time is
  * ten fluid steps (Costa et al. 2015, Phys. Rev. E 92, 053012, resolve a
  * collision in about ten), lubrication.min_gap 1e-3 of the smallest sphere
- * radius; the lubrication cut-off is Nguyen & Ladd's (2002) 2/3 of a cell. */
+ * radius; the lubrication cut-off is 2 cells, where the film zone makes the
+ * force of a close pair independent of where its gap sits in the cell (README
+ * "Lubrication"). */
 static void build_contacts(ctx_t *c, const raw_contacts_t *r, scene_t *s, bool dt_ok)
 {
     static const raw_contacts_t none = {0};
@@ -392,7 +394,7 @@ static void build_contacts(ctx_t *c, const raw_contacts_t *r, scene_t *s, bool d
     scene_lubrication_t *l = &k->lubrication;
     double rmin = smallest_radius(s);
     l->enabled = rl->enabled ? (*rl->enabled ? 1 : 0) : k->model != CONTACT_NONE;
-    l->cutoff = opt(rl->cutoff, 0.67);
+    l->cutoff = opt(rl->cutoff, 2.0);
     l->min_gap = opt(rl->min_gap, isfinite(rmin) ? 1e-3 * rmin : 0.0);
     scene_check_range(c, "contacts.restitution", k->restitution, 0, 1, LO_OPEN);
     scene_check_range(c, "contacts.contact_time", k->contact_time, 0, INFINITY, LO_OPEN);

@@ -207,6 +207,14 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     for (int a = 0; a < 3; a++) {
         sp->periodic[a] = s->domain.faces[2 * a].type == FACE_PERIODIC;
     }
+    /* the film zone (spheres_fill): where the rigid component adds the film
+     * force, every face but inlets, outlets and periodic ones */
+    const scene_lubrication_t *lub = &s->contacts.lubrication;
+    sp->film_cutoff = lub->enabled ? lub->cutoff : 0.0;
+    for (int f = 0; f < 6; f++) {
+        const face_type_t t = s->domain.faces[f].type;
+        sp->film_face[f] = t == FACE_NO_SLIP || t == FACE_MOVING_WALL || t == FACE_FREE_SLIP;
+    }
     if (sp->n == 0) {
         return STATUS_OK;
     }
@@ -589,19 +597,68 @@ static int fluid_at(spheres_t *sp, const grid_t *g, const uint8_t *flags, const 
 
 /* Spheres whose rays from cells near sphere k can hit first: a link of k
  * starts within r_k + sqrt(2) of c_k and one of m within r_m + sqrt(2) of
- * c_m (|c_q| <= sqrt 2), so |c_k - c_m| < r_k + r_m + 3 takes in all. */
+ * c_m (|c_q| <= sqrt 2), so |c_k - c_m| < r_k + r_m + 3 takes in all; and
+ * the film partners of k's wall points, within r_k + r_m + the cut-off. */
 static int candidates(const spheres_t *sp, int k, int *out)
 {
     int n = 0;
     for (int m = 0; m < sp->n; m++) {
         double d[3];
         min_image(sp, sp->s[k].c, sp->s[m].c, d);
-        const double reach = sp->s[k].r + sp->s[m].r + 3.0;
+        const double reach = sp->s[k].r + sp->s[m].r + fmax(3.0, sp->film_cutoff + 1.5);
         if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach) {
             out[n++] = m;
         }
     }
     return n;
+}
+
+/* The film zone (README "Lubrication"). Below the cut-off h_c the rigid
+ * component adds the film force of the whole region where the surfaces are
+ * closer than h_c: in lubrication theory (Reynolds) the pressure under
+ * sphere k at distance rho from the line of centres is 3 mu reff V / h(rho)^2
+ * with h = h_0 + rho^2 / (2 reff), and its integral over h < h_c is exactly
+ * 6 pi mu reff^2 V (1/h_0 - 1/h_c), the correction of rigid/lubrication.c.
+ * The lattice's own normal force on that region is what a row of nodes in
+ * the gap, or none, makes of a film it cannot resolve: it is left out (the
+ * normal part of the links whose wall point lies within h_c of the partner's
+ * surface), so that the force does not depend on where the gap sits in the
+ * cell and nothing is counted twice. The partner of a wall point: the
+ * nearest surface within h_c of another body's sphere or of a face with a
+ * film; -1 none, m a sphere, -2 - f face f. */
+static int film_partner(const spheres_t *sp, int k, const double rw[3], const int *cand, double (*rel)[3],
+                        int nc)
+{
+    const sphere_t *p = &sp->s[k];
+    double best = sp->film_cutoff;
+    int partner = -1;
+    if (!(best > 0.0)) {
+        return -1;
+    }
+    for (int c = 0; c < nc; c++) {
+        const sphere_t *m = &sp->s[cand[c]];
+        if (m->body == p->body) {
+            continue; /* one rigid body: no film between its spheres */
+        }
+        const double d[3] = {rw[0] + rel[c][0], rw[1] + rel[c][1], rw[2] + rel[c][2]};
+        const double gap = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - m->r;
+        if (gap < best) {
+            best = gap;
+            partner = cand[c];
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        const double x = p->c[a] + rw[a];
+        /* the faces lie half a cell beyond the first and last cells, X = 0.5 and N + 0.5 */
+        const double gap[2] = {x - 0.5, sp->N[a] + 0.5 - x};
+        for (int side = 0; side < 2; side++) {
+            if (sp->film_face[2 * a + side] && gap[side] < best) {
+                best = gap[side];
+                partner = -2 - (2 * a + side);
+            }
+        }
+    }
+    return partner;
 }
 
 /* The links of sphere k: every fluid cell x_f in its box (plus a cell) and
@@ -733,6 +790,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     for (int a = 0; a < 3; a++) {
                         l->rw[a] = dk[a] + delta * lb_c[q][a];
                     }
+                    l->film = film_partner(sp, k, l->rw, cand, rel, nc);
                 }
             }
         }
@@ -925,6 +983,23 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         double df[3];
         for (int a = 0; a < 3; a++) {
             df[a] = lb_c[q][a] * mem - (galilean ? (f_old - f_new) * uw[a] : 0.0);
+        }
+        if (l->film != -1) {
+            /* in the film zone: the normal part is the film's (film_partner) */
+            double n[3] = {0.0, 0.0, 0.0};
+            if (l->film >= 0) {
+                min_image(sp, p->c, sp->s[l->film].c, n);
+                const double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+                for (int a = 0; a < 3; a++) {
+                    n[a] /= len;
+                }
+            } else {
+                n[(-2 - l->film) / 2] = 1.0;
+            }
+            const double dn = df[0] * n[0] + df[1] * n[1] + df[2] * n[2];
+            for (int a = 0; a < 3; a++) {
+                df[a] -= dn * n[a];
+            }
         }
         double t[3];
         cross(l->rw, df, t);

@@ -85,6 +85,8 @@ typedef struct {
     double rw[3];         /* wall point minus sphere centre */
     int q, sphere;
     int fresh;            /* x_f was uncovered this step: no multireflection correction */
+    int film;             /* the film partner whose surface lies within the lubrication cut-off of the
+                           * wall point: a sphere m >= 0, a domain face -2 - face; -1 none (spheres_fill) */
     int outer;            /* x_f lies in an outer row of the block: y or z at its faces (spheres_fill) */
     double fnew;          /* outer: the value to write, held back (SPHERES_HOLD_OUTER) */
     double delta;
@@ -126,6 +128,8 @@ typedef struct spheres_s {
     int first;
     int stale;            /* the links do not match the flags (a restored state): map anew */
     double omega_minus;
+    double film_cutoff;   /* cells: the lubrication cut-off of the film zone, 0 without a film (spheres_fill) */
+    int film_face[6];     /* 1: a face that carries a film (no-slip, moving, free-slip walls) */
     double body_force[3]; /* lattice: the equilibrium velocity is (j~ - F/2)/rho */
 } spheres_t;
 

@@ -13,13 +13,26 @@
  *     F = 6 pi mu reff^2 vn / h,   reff = r_i r_j/(r_i + r_j) | r | r/2.
  * Inlet and outlet faces are no solid surface: contact only, no film.
  *
- * Cut-off (Nguyen & Ladd 2002, Phys. Rev. E 66, 046708). The lattice resolves
- * the flow in the gap down to about one cell; below that the film force is
- * missing. Only the unresolved part is added,
- *     F = 6 pi mu reff^2 vn (1/max(h, h_min) - 1/h_c)   for h < h_c, else 0,
- * which is continuous (zero) at the cut-off h_c and does not count twice what
- * the lattice already gives. h_min (surface roughness) keeps it finite in
- * contact and in overlap (h < 0), where the contact law takes over.
+ * The film zone and the cut-off h_c (Nguyen & Ladd 2002, Phys. Rev. E 66,
+ * 046708, for the cut-off). The lattice resolves the flow in a gap of a few
+ * cells; below that its force depends on whether a row of nodes lies in the
+ * gap. So the fluid leaves out its own normal force on the zone where the
+ * surfaces are closer than h_c (fluid/spheres.c film_partner), and this file
+ * gives the film force of that zone: in lubrication theory (Reynolds) the
+ * pressure at distance rho from the line of centres is 3 mu reff vn / h(rho)^2,
+ * h = h_0 + rho^2/(2 reff), whose integral over h < h_c is
+ * 6 pi mu reff^2 vn (1/h_0 - 1/h_c); the next term of the exact near field,
+ * 6 pi mu rlog vn ln(1/h) (Jeffrey & Onishi 1984, J. Fluid Mech. 139, 261:
+ * their g2 = b (1 + 7b + b^2) / (5 (1 + b)^3), b = r_j/r_i, in units of r_i;
+ * r/5 against a no-slip wall, Brenner's series; 9r/20 against a free
+ * surface, its mirror pair), spreads evenly over ln h and so gives the zone
+ * rlog ln(h_c/h_0). Together
+ *     F = 6 pi mu vn [reff^2 (1/h - 1/h_c) + rlog ln(h_c/h)],  h = max(h_0, h_min),
+ * for h_0 < h_c, else 0: the exact force at h_0 minus the exact force at h_c
+ * to O(h ln h) (test_lubrication.c: 5e-4 of Brenner's table), zero and
+ * continuous at the cut-off, nothing counted twice. h_min (surface
+ * roughness) keeps it finite in contact and in overlap (h < 0), where the
+ * contact law takes over.
  *
  * Only the normal part: the tangential (shear and rolling) singularities grow
  * only like ln(a/h) (Goldman, Cox & Brenner 1967; O'Neill & Stewartson 1967),
@@ -27,7 +40,7 @@
  * friction of contact.c takes over.
  *
  * Stiffness. The film is a pure damper with coefficient
- * c = 6 pi mu reff^2 (1/h - 1/h_c), which near contact exceeds m_eff/h_step by
+ * c = F/vn, which near contact exceeds m_eff/h_step by
  * orders of magnitude: an explicit kick would reverse the approach and blow
  * up. With h_kick > 0 (Verlet) each kick integrates the film exactly: over a
  * kick of length k the relative normal speed of the pair obeys
@@ -54,13 +67,28 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-double rigid_lubrication_normal(double mu, double reff, double gap, double vn, double cutoff, double min_gap)
+double rigid_lubrication_normal(double mu, double reff, double rlog, double gap, double vn, double cutoff,
+                                double min_gap)
 {
     if (!(gap < cutoff)) {
         return 0.0;
     }
     double h = fmax(gap, min_gap);
-    return 6.0 * M_PI * mu * reff * reff * vn * (1.0 / h - 1.0 / cutoff);
+    const double lead = reff * reff * (1.0 / h - 1.0 / cutoff);
+    return 6.0 * M_PI * mu * vn * (rlog != 0.0 ? lead + rlog * log(cutoff / h) : lead);
+}
+
+void rigid_film_of_spheres(double ri, double rj, double *reff, double *rlog)
+{
+    const double b = rj / ri;
+    *reff = ri * rj / (ri + rj);
+    *rlog = ri * b * (1.0 + 7.0 * b + b * b) / (5.0 * (1.0 + b) * (1.0 + b) * (1.0 + b));
+}
+
+void rigid_film_of_wall(double r, int free_slip, double *reff, double *rlog)
+{
+    *reff = free_slip ? 0.5 * r : r;
+    *rlog = free_slip ? 0.45 * r : 0.2 * r;
 }
 
 typedef struct {
@@ -69,23 +97,28 @@ typedef struct {
     const double (*x)[3];
 } lub_ctx_t;
 
-/* reff of a pair, 0 where there is no film to squeeze */
-static double pair_reff(const rigid_t *r, const rigid_pair_t *p)
+/* The film lengths of a pair (rigid_film_of_spheres, rigid_film_of_wall);
+ * 0 where there is no film to squeeze */
+static double pair_film(const rigid_t *r, const rigid_pair_t *p, double *rlog)
 {
-    double ri = r->spheres[p->i].radius;
+    double ri = r->spheres[p->i].radius, reff = 0.0;
+    *rlog = 0.0;
     if (p->j >= 0) {
         double rj = r->spheres[p->j].radius;
         /* a broken sintered neck whose spheres still overlap is solid, not a film */
         if (rigid_contact_reference(r, p->i, p->j) < ri + rj) {
             return 0.0;
         }
-        return ri * rj / (ri + rj);
+        rigid_film_of_spheres(ri, rj, &reff, rlog);
+        return reff;
     }
     switch (r->cfg.wall_kind[p->face / 2][p->face % 2]) {
     case RIGID_WALL_NO_SLIP:
-        return ri;
+        rigid_film_of_wall(ri, 0, &reff, rlog);
+        return reff;
     case RIGID_WALL_FREE_SLIP:
-        return 0.5 * ri;
+        rigid_film_of_wall(ri, 1, &reff, rlog);
+        return reff;
     default:
         return 0.0;
     }
@@ -142,11 +175,11 @@ static int lub_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t *
 {
     const lub_ctx_t *c = ctx;
     const rigid_config_t *cfg = &r->cfg;
-    double reff = pair_reff(r, p);
+    double rlog, reff = pair_film(r, p, &rlog);
     if (reff == 0.0) {
         return 0;
     }
-    double coef = rigid_lubrication_normal(c->mu, reff, p->gap, 1.0, cfg->lub_cutoff, cfg->lub_min_gap);
+    double coef = rigid_lubrication_normal(c->mu, reff, rlog, p->gap, 1.0, cfg->lub_cutoff, cfg->lub_min_gap);
     if (!(coef > 0.0)) {
         return 0;
     }

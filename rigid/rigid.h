@@ -108,11 +108,21 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
 /* Lubrication correction (lubrication.c), a pure function: the normal force
  * (N) of the fluid film between two surfaces at gap (m) approaching at vn
  * (m/s; > 0 approach gives a repulsive force > 0, separation an attractive
- * one < 0), F = 6 pi mu reff^2 vn (1/max(gap, min_gap) - 1/cutoff) for
- * gap < cutoff and 0 otherwise. mu: dynamic viscosity (Pa s); reff: r_i r_j /
- * (r_i + r_j) for two spheres, r against a no-slip wall, r/2 against a
- * free-slip wall. */
-double rigid_lubrication_normal(double mu, double reff, double gap, double vn, double cutoff, double min_gap);
+ * one < 0): the film of the region where the surfaces are closer than the
+ * cut-off,
+ *     F = 6 pi mu vn [reff^2 (1/h - 1/cutoff) + rlog ln(cutoff/h)],
+ * h = max(gap, min_gap), for gap < cutoff and 0 otherwise. mu: dynamic
+ * viscosity (Pa s); reff and rlog (m) from rigid_film_of_spheres and
+ * rigid_film_of_wall. */
+double rigid_lubrication_normal(double mu, double reff, double rlog, double gap, double vn, double cutoff,
+                                double min_gap);
+/* The film's lengths for two spheres of radii ri, rj (Jeffrey & Onishi 1984):
+ * reff = ri rj / (ri + rj), rlog = ri b (1 + 7b + b^2) / (5 (1 + b)^3),
+ * b = rj / ri; for a sphere against a no-slip wall (free_slip 0: Brenner
+ * 1961, reff = r, rlog = r/5) or a free-slip one (1: the mirror pair,
+ * reff = r/2, rlog = 9r/20). */
+void rigid_film_of_spheres(double ri, double rj, double *reff, double *rlog);
+void rigid_film_of_wall(double r, int free_slip, double *reff, double *rlog);
 
 /* The configuration of a scene (rigid_scene.c): every body of the scene,
  * fixed and prescribed ones as fixed bodies; sphere i = the scene's global

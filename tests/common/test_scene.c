@@ -275,7 +275,7 @@ static void test_defaults(void)
     CU_ASSERT_DOUBLE_EQUAL(s->contacts.restitution, 0.9, 0);
     CU_ASSERT_DOUBLE_EQUAL(s->contacts.contact_time, 10 * s->fluid.dt, 0); /* ten fluid steps */
     CU_ASSERT_EQUAL(s->contacts.lubrication.enabled, 1);
-    CU_ASSERT_DOUBLE_EQUAL(s->contacts.lubrication.cutoff, 0.67, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.lubrication.cutoff, 2.0, 0);
     CU_ASSERT_DOUBLE_EQUAL(s->contacts.lubrication.min_gap, 0, 0); /* no spheres */
     CU_ASSERT_DOUBLE_EQUAL(s->contacts.friction, 0, 0);
     CU_ASSERT_DOUBLE_EQUAL(s->contacts.young_modulus, 1e9, 0);
@@ -783,10 +783,10 @@ static void test_lubrication_keys(void)
     EXPECT_SET_ERROR("contacts.lubrication.cutoff=0", "contacts.lubrication.cutoff = 0: out of range; allowed: (0, 10]");
     EXPECT_SET_ERROR("contacts.lubrication.cutoff=10.5", "contacts.lubrication.cutoff = 10.5: out of range");
     EXPECT_SET_ERROR("contacts.lubrication.min_gap=0", "contacts.lubrication.min_gap = 0: out of range; allowed: (0, inf)");
-    /* dx = 2.5e-5 m: the default cut-off 0.67 cells is 1.675e-5 m */
-    EXPECT_SET_ERROR("contacts.lubrication.min_gap=2e-5",
-                     "contacts.lubrication.min_gap = 2e-05 m is not below the cut-off contacts.lubrication.cutoff x "
-                     "fluid.dx = 0.67 x 2.5e-05 m = 1.675e-05 m");
+    /* dx = 2.5e-5 m: the default cut-off 2 cells is 5e-5 m */
+    EXPECT_SET_ERROR("contacts.lubrication.min_gap=6e-5",
+                     "contacts.lubrication.min_gap = 6e-05 m is not below the cut-off contacts.lubrication.cutoff x "
+                     "fluid.dx = 2 x 2.5e-05 m = 5e-05 m");
     EXPECT_SET_ERROR("contacts.lubrication.width=1", "contacts.lubrication.width");
 }
 

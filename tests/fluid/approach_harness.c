@@ -43,8 +43,13 @@ static double lub_lambda(const approach_setup_t *set, double g)
 {
     const double mu = (set->tau - 0.5) / 3.0, F0 = 6.0 * PI * mu * set->a * set->U;
     const int pair = set->kind == APPROACH_SPHERES;
-    return rigid_lubrication_normal(mu, pair ? set->a / 2.0 : set->a, g, pair ? 2.0 * set->U : set->U, set->cutoff,
-                                    1e-3 * set->a) / F0;
+    double reff, rlog;
+    if (pair) {
+        rigid_film_of_spheres(set->a, set->a, &reff, &rlog);
+    } else {
+        rigid_film_of_wall(set->a, 0, &reff, &rlog);
+    }
+    return rigid_lubrication_normal(mu, reff, rlog, g, pair ? 2.0 * set->U : set->U, set->cutoff, 1e-3 * set->a) / F0;
 }
 
 long harness_approach(const approach_setup_t *set, const double *gaps, int n, approach_point_t *out)
@@ -59,6 +64,9 @@ long harness_approach(const approach_setup_t *set, const double *gaps, int n, ap
     s.fluid.boundary_scheme = BOUNDARY_CLI;
     s.fluid.force_method = FORCE_GALILEAN;
     s.fluid.refill = REFILL_EXTRAPOLATION;
+    /* the film zone of the fluid (spheres.c film_partner) at the harness's cut-off */
+    s.contacts.lubrication.enabled = set->cutoff > 0.0;
+    s.contacts.lubrication.cutoff = set->cutoff;
     scene_sphere_t sph[2];
     scene_body_t body[2];
     memset(body, 0, sizeof body);

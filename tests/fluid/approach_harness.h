@@ -11,6 +11,9 @@
  * The force is compared with Brenner's (1961) exact result for the gap of
  * each step (quasi-steady Stokes flow): lambda = F / (6 pi mu a U); for two
  * spheres, by mirror symmetry, the free-surface result at half their gap.
+ * The fluid leaves out the lattice's normal force on the film zone, where
+ * the surfaces are closer than the cut-off, and the film force of
+ * rigid/lubrication.c stands for it (README "Lubrication").
  * The lattice force jumps as cells are covered and uncovered; what a moving
  * particle feels is its mean over that lattice period, so each target gap is
  * evaluated as the mean of F / F_Brenner over half a cell of travel of each
@@ -29,7 +32,7 @@ typedef struct {
     double tau;       /* TRT, magic 3/16 */
     double U;         /* speed of each sphere, cells per step */
     double offset;    /* two spheres: their midplane sits this fraction of a cell above a cell face */
-    double cutoff;    /* lubrication cut-off, cells (scene default 0.67) */
+    double cutoff;    /* lubrication cut-off, cells (scene default 2): the film zone of the fluid and the film's */
     double start_gap; /* gap / a where the motion starts (steady flow there first) */
     double end_gap;   /* gap / a where it stops */
     FILE *trace;      /* NULL, or per step of the approach: gap/a, lattice, film and Brenner lambda (CSV) */
@@ -46,8 +49,8 @@ typedef struct {
 
 /* The validation runs (make validate, the report): radius 8, 96^3 against
  * the wall from gap/a 2.1, 96^2 x 128 for the pair. */
-#define APPROACH_WALL_FULL {APPROACH_WALL, 8.0, 96, 96, 1.5, 0.003, 0.0, 0.67, 2.1, 0.015, NULL}
-#define APPROACH_PAIR_FULL {APPROACH_SPHERES, 8.0, 96, 128, 1.5, 0.003, 0.0, 0.67, 2.1, 0.015, NULL}
+#define APPROACH_WALL_FULL {APPROACH_WALL, 8.0, 96, 96, 1.5, 0.003, 0.0, 2.0, 2.1, 0.015, NULL}
+#define APPROACH_PAIR_FULL {APPROACH_SPHERES, 8.0, 96, 128, 1.5, 0.003, 0.0, 2.0, 2.1, 0.015, NULL}
 
 /* Brenner's lambda for a sphere whose centre is at h/a = 1 + gap_a from a
  * no-slip plane (free_surface 0) or a free surface (1); the series of
