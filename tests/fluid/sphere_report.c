@@ -12,7 +12,7 @@
  *   seconds     wall time of each run;
  * and the cost of a step with a particle relative to a pure fluid step on
  * the same grid; `sphere_report approach [DIR]` (also in "all") runs the
- * close approaches of the validation (a sphere to a wall, two spheres at two
+ * close approaches of the validation (a sphere to a wall, two spheres at three
  * placements, radius 8) and writes their per-step curves as CSV into DIR
  * (default build/report) for tools/plot_approach.py. Output: plain columns,
  * one line per combination. */
@@ -65,12 +65,13 @@ static double step_cost(int with_sphere)
 static int report_approach(const char *dir)
 {
     const double gaps[] = {2.0, 1.0, 0.5, 0.2, 0.1, 0.05};
-    approach_setup_t runs[3] = {APPROACH_WALL_FULL, APPROACH_PAIR_FULL, APPROACH_PAIR_FULL};
-    const char *names[3] = {"approach_wall", "approach_pair_face", "approach_pair_node"};
-    runs[2].offset = 0.5;
+    approach_setup_t runs[4] = {APPROACH_WALL_FULL, APPROACH_PAIR_FULL, APPROACH_PAIR_FULL, APPROACH_PAIR_FULL};
+    const char *names[4] = {"approach_wall", "approach_pair_face", "approach_pair_quarter", "approach_pair_node"};
+    runs[2].offset = 0.25;
+    runs[3].offset = 0.5;
     printf("# close approaches, radius 8, Re 0.07: (lattice + film) / Brenner, mean over half a cell of travel\n");
     printf("%-20s %6s %10s %10s %10s %10s\n", "run", "gap/a", "Brenner", "total", "lattice", "seconds");
-    for (int r = 0; r < 3; r++) {
+    for (int r = 0; r < 4; r++) {
         char path[512];
         snprintf(path, sizeof path, "%s/%s.csv", dir, names[r]);
         runs[r].trace = fopen(path, "w");

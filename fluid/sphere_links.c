@@ -1,0 +1,282 @@
+/* sphere_links.c — the boundary links of the moving spheres (spheres.h,
+ * "links"): for every fluid cell x_f near a sphere and direction q with
+ * x_f + c_q solid, the wall distance delta of Eq. 5 (the nearest hit over
+ * all spheres wins, so a link belongs to exactly one sphere), the cells the
+ * boundary scheme reads (boundary.c), and the film partner of the wall point
+ * (README "Lubrication"). Each sphere builds its own list from its bounding
+ * box, in parallel over spheres and in a fixed order: the lists, and the
+ * loads summed from them, do not depend on the threads. */
+#include "spheres_internal.h"
+
+#include "boundary.h"
+#include "lattice.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* delta of the ray x + t c_q, t in (0, 1], against a sphere of radius r
+ * whose centre is at x - d; 0 if it starts inside or misses. */
+static double ray_delta(const double d[3], int q, double r)
+{
+    const double cc = (double)(lb_c[q][0] * lb_c[q][0] + lb_c[q][1] * lb_c[q][1] + lb_c[q][2] * lb_c[q][2]);
+    const double b = d[0] * lb_c[q][0] + d[1] * lb_c[q][1] + d[2] * lb_c[q][2];
+    const double c = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - r * r;
+    const double disc = b * b - cc * c;
+    if (c <= 0.0 || disc < 0.0) {
+        return 0.0; /* starts inside, or misses */
+    }
+    /* smaller root, written to avoid cancellation */
+    const double t = c / (-b + sqrt(disc));
+    return (b < 0.0 && t > 0.0 && t <= 1.0 + 1e-12) ? fmin(t, 1.0) : 0.0;
+}
+
+/* 1 when the cell k steps back along c_q from local X is fluid (ref in *out). */
+static int fluid_at(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, int k,
+                    size_t *out)
+{
+    int Z[3];
+    for (int a = 0; a < 3; a++) {
+        Z[a] = X[a] - k * lb_c[q][a];
+    }
+    uint8_t flag;
+    if (!spheres_cell(sp, g, flags, Z, out, &flag)) {
+        return 0;
+    }
+    return (flag & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
+}
+
+/* Spheres whose rays from cells near sphere k can hit first: a link of k
+ * starts within r_k + sqrt(2) of c_k and one of m within r_m + sqrt(2) of
+ * c_m (|c_q| <= sqrt 2), so |c_k - c_m| < r_k + r_m + 3 takes in all; and
+ * the film partners of k's wall points, within r_k + r_m + the cut-off. */
+static int candidates(const spheres_t *sp, int k, int *out)
+{
+    int n = 0;
+    for (int m = 0; m < sp->n; m++) {
+        double d[3];
+        spheres_min_image(sp, sp->s[k].c, sp->s[m].c, d);
+        const double reach = sp->s[k].r + sp->s[m].r + fmax(3.0, sp->film_cutoff + 1.5);
+        if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach) {
+            out[n++] = m;
+        }
+    }
+    return n;
+}
+
+/* The film zone (README "Lubrication"). Below the cut-off h_c the rigid
+ * component adds the film force of the whole region where the surfaces are
+ * closer than h_c: in lubrication theory (Reynolds) the pressure under
+ * sphere k at distance rho from the line of centres is 3 mu reff V / h(rho)^2
+ * with h = h_0 + rho^2 / (2 reff), and its integral over h < h_c is exactly
+ * 6 pi mu reff^2 V (1/h_0 - 1/h_c), the correction of rigid/lubrication.c.
+ * The lattice's own normal force on that region is what a row of nodes in
+ * the gap, or none, makes of a film it cannot resolve: it is left out (the
+ * normal part of the links whose wall point lies within h_c of the partner's
+ * surface), so that the force does not depend on where the gap sits in the
+ * cell and nothing is counted twice. The partner of a wall point: the
+ * nearest surface within h_c of another body's sphere or of a face with a
+ * film; -1 none, m a sphere, -2 - f face f. */
+static int film_partner(const spheres_t *sp, int k, const double rw[3], const int *cand, double (*rel)[3],
+                        int nc)
+{
+    const sphere_t *p = &sp->s[k];
+    double best = sp->film_cutoff;
+    int partner = -1;
+    if (!(best > 0.0)) {
+        return -1;
+    }
+    for (int c = 0; c < nc; c++) {
+        const sphere_t *m = &sp->s[cand[c]];
+        if (m->body == p->body) {
+            continue; /* one rigid body: no film between its spheres */
+        }
+        const double d[3] = {rw[0] + rel[c][0], rw[1] + rel[c][1], rw[2] + rel[c][2]};
+        const double gap = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - m->r;
+        if (gap < best) {
+            best = gap;
+            partner = cand[c];
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        const double x = p->c[a] + rw[a];
+        /* the faces lie half a cell beyond the first and last cells, X = 0.5 and N + 0.5 */
+        const double gap[2] = {x - 0.5, sp->N[a] + 0.5 - x};
+        for (int side = 0; side < 2; side++) {
+            if (sp->film_face[2 * a + side] && gap[side] < best) {
+                best = gap[side];
+                partner = -2 - (2 * a + side);
+            }
+        }
+    }
+    return partner;
+}
+
+/* The links of sphere k: every fluid cell x_f in its box (plus a cell) and
+ * direction q with x_f + c_q solid whose ray hits k first (Eq. 5, nearest
+ * intersection over the candidates). A link thus belongs to exactly one
+ * sphere and the spheres build their lists independently. */
+static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, int k, int *cand,
+                        link_list_t *list)
+{
+    const sphere_t *p = &sp->s[k];
+    if (!spheres_near_block(sp, p->c, p->r + 2.0, sp->lo, sp->nb)) {
+        list->n = 0;
+        return 1; /* no cell of this block links to it */
+    }
+    int nc = candidates(sp, k, cand);
+    /* the other candidates, and their centres relative to c_k (minimum image) */
+    double rel[nc > 0 ? nc : 1][3];
+    int m_n = 0;
+    for (int c = 0; c < nc; c++) {
+        if (cand[c] != k) {
+            spheres_min_image(sp, p->c, sp->s[cand[c]].c, rel[m_n]);
+            cand[m_n++] = cand[c];
+        }
+    }
+    nc = m_n;
+    const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
+    ptrdiff_t off[LB_Q];
+    for (int q = 0; q < LB_Q; q++) {
+        off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
+    }
+    /* the list in locals while it grows: the lists of all spheres sit side by
+     * side, and threads writing their counts would share cache lines */
+    sphere_link_t *links = list->l;
+    size_t nl = 0, cap = list->cap;
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = (int)floor(p->c[a] - p->r) - 1;
+        hi[a] = (int)ceil(p->c[a] + p->r) + 1;
+    }
+    int X[3], Y[3];
+    for (X[2] = lo[2]; X[2] <= hi[2]; X[2]++) {
+        for (X[1] = lo[1]; X[1] <= hi[1]; X[1]++) {
+            for (X[0] = lo[0]; X[0] <= hi[0]; X[0]++) {
+                /* the box is about c_k, so X - c_k is the minimum image */
+                const double dk[3] = {X[0] - p->c[0], X[1] - p->c[1], X[2] - p->c[2]};
+                const double dd = dk[0] * dk[0] + dk[1] * dk[1] + dk[2] * dk[2];
+                if (dd > reach2 || dd <= r2) {
+                    continue; /* no ray of length <= sqrt 2 from here reaches k; or inside k (solid) */
+                }
+                if (spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y) != 1) {
+                    continue; /* beyond a wall, or another rank's cell: its links are built there */
+                }
+                const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
+                if ((flags[i] & ~FLAG_FRESH) != 0) {
+                    continue; /* solid or ghost */
+                }
+                int inner = 1; /* all neighbours inside the grid: no wrap needed */
+                for (int a = 0; a < 3; a++) {
+                    inner = inner && Y[a] > 1 && Y[a] < g->n[a];
+                }
+                for (int q = 1; q < LB_Q; q++) {
+                    int B[3], W[3];
+                    size_t nb;
+                    if (inner) {
+                        nb = (size_t)((ptrdiff_t)i + off[q]);
+                    } else {
+                        for (int a = 0; a < 3; a++) {
+                            B[a] = Y[a] + lb_c[q][a] + sp->lo[a];
+                        }
+                        /* a neighbour: in the block or its ghost layer, whose
+                         * flags mark_sphere set as the owner's */
+                        if (!spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W)) {
+                            continue;
+                        }
+                        nb = grid_index(g, W[0], W[1], W[2]);
+                    }
+                    if (!(flags[nb] & FLAG_SOLID)) {
+                        continue;
+                    }
+                    /* Eq. 5: the nearest intersection over the candidates wins
+                     * (ties to the lower index); a link of k must hit k first */
+                    double delta = ray_delta(dk, q, p->r);
+                    int other = 0;
+                    for (int c = 0; c < nc && !other; c++) {
+                        const sphere_t *s = &sp->s[cand[c]];
+                        const double dm[3] = {dk[0] + rel[c][0], dk[1] + rel[c][1], dk[2] + rel[c][2]};
+                        const double rm = s->r + 1.4143;
+                        if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] > rm * rm) {
+                            continue;
+                        }
+                        const double t = ray_delta(dm, q, s->r);
+                        other = t > 0.0 && (delta == 0.0 || t < delta || (t == delta && cand[c] < k));
+                    }
+                    if (other) {
+                        continue; /* another sphere's link */
+                    }
+                    if (delta == 0.0) {
+                        /* no ray hits: x_b sits on a surface the ray only touches at t = 1 */
+                        double d[3];
+                        const double xb[3] = {Y[0] + sp->lo[0] + lb_c[q][0], Y[1] + sp->lo[1] + lb_c[q][1],
+                                              Y[2] + sp->lo[2] + lb_c[q][2]};
+                        if (spheres_nearest(sp, xb, d) != k) {
+                            continue;
+                        }
+                        delta = 1.0;
+                    }
+                    if (!spheres_grow((void **)&links, &cap, nl + 1, sizeof *links)) {
+                        list->l = links;
+                        list->cap = cap;
+                        list->n = nl;
+                        return 0;
+                    }
+                    sphere_link_t *l = &links[nl++];
+                    l->q = q;
+                    l->sphere = k;
+                    l->delta = delta;
+                    l->xf = l->xff = l->xfff = i; /* xff, xfff: replaced where they exist */
+                    /* uncovered this step: refill.c replaced its populations, it has no
+                     * pre-collision ones, and its links go without the multireflection
+                     * correction for this one step (with it, a moving sphere's drag
+                     * fluctuated 16 times more) */
+                    l->fresh = (flags[i] & FLAG_FRESH) != 0;
+                    /* written after the exchange: a cell of an outer row (fluid.c step_overlapped) */
+                    l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
+                    const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
+                    const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
+                    boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, l->a, l->b,
+                                          &l->corr);
+                    for (int a = 0; a < 3; a++) {
+                        l->rw[a] = dk[a] + delta * lb_c[q][a];
+                    }
+                    l->film = film_partner(sp, k, l->rw, cand, rel, nc);
+                }
+            }
+        }
+    }
+    list->l = links;
+    list->cap = cap;
+    list->n = nl;
+    return 1;
+}
+
+/* Every sphere's links, in parallel over spheres: each list is its own, so
+ * the lists (and the loads summed from them) do not depend on the threads. */
+status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, const log_t *log)
+{
+    int failed = -1;
+#pragma omp parallel
+    {
+        int *cand = malloc((size_t)sp->n * sizeof *cand);
+#pragma omp for schedule(dynamic, 1)
+        for (int k = 0; k < sp->n; k++) {
+            if (cand == NULL || !sphere_links(sp, g, flags, k, cand, &sp->lists[k])) {
+#pragma omp critical(spheres_links_failed)
+                failed = k;
+            }
+        }
+        free(cand);
+    }
+    sp->nlinks = 0;
+    for (int k = 0; k < sp->n; k++) {
+        sp->nlinks += sp->lists[k].n;
+    }
+    if (failed >= 0) {
+        return log_msg(log, STATUS_ERROR, "fluid",
+                       "out of memory for the boundary links of sphere %d (%zu links of %zu bytes so far)", failed,
+                       sp->lists[failed].n + 1, sizeof(sphere_link_t));
+    }
+    return STATUS_OK;
+}
