@@ -104,12 +104,14 @@ static double pair_film(const rigid_t *r, const rigid_pair_t *p, double *rlog)
     double ri = r->spheres[p->i].radius, reff = 0.0;
     *rlog = 0.0;
     if (p->j >= 0) {
-        double rj = r->spheres[p->j].radius;
-        /* a broken sintered neck whose spheres still overlap is solid, not a film */
-        if (rigid_contact_reference(r, p->i, p->j) < ri + rj) {
+        /* fragments of one scene body (and the broken sintered necks among
+         * them, solid rather than a film): the fluid keeps the lattice's own
+         * force between spheres of one scene body (fluid/sphere_links.c
+         * film_partner), so a film here would count it twice */
+        if (r->spheres[p->i].orig_body == r->spheres[p->j].orig_body) {
             return 0.0;
         }
-        rigid_film_of_spheres(ri, rj, &reff, rlog);
+        rigid_film_of_spheres(ri, r->spheres[p->j].radius, &reff, rlog);
         return reff;
     }
     switch (r->cfg.wall_kind[p->face / 2][p->face % 2]) {
