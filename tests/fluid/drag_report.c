@@ -110,6 +110,10 @@ int drag_plan_parse(drag_plan_t *plan, int argc, char **argv)
             plan->ntaus = parse_list(w + 5, plan->taus, DRAG_MAX);
         } else if (!strcmp(w, "precision=single") || !strcmp(w, "precision=double")) {
             test_box_precision = w[10] == 's' ? PRECISION_SINGLE : PRECISION_DOUBLE;
+        } else if (!strcmp(w, "streaming=two_array") || !strcmp(w, "streaming=in_place")) {
+            /* two arrays keep the pre-collision populations that multireflection
+             * reads where in place cannot recover them (omega- near 1) */
+            test_box_streaming = w[10] == 't' ? STREAMING_TWO_ARRAY : STREAMING_IN_PLACE;
         } else if (!strcmp(w, "collisions=bgk,trt") || !strcmp(w, "collisions=trt,bgk")) {
             plan->ncollisions = 2;
             plan->collisions[0] = COLLISION_BGK;
@@ -174,10 +178,12 @@ int drag_report(const char *dir, const drag_plan_t *plan)
     for (int o = 0; o < 2; o++) {
         fprintf(outs[o],
                 "# drag of a fixed sphere in a simple cubic array, D/L = 1/2 (Sangani & Acrivos 1982, K = 2.84202),\n"
-                "# TRT Lambda %.6g (or BGK), %d centre positions in a cell (corner, centre, %d random, seed %llu);\n"
+                "# TRT Lambda %.6g (or BGK), %s streaming, %d centre positions in a cell (corner, centre, %d random, "
+                "seed %llu);\n"
                 "# K/K_SA - 1 in %%: flux definition K = f L^3/(6 pi mu a U) (mean, worst |.|, max-min), and\n"
                 "# momentum exchange K = (F + f 4/3 pi a^3)/(6 pi mu a U) beside it\n",
-                test_box_magic, plan->npositions, plan->npositions - 2, DRAG_SEED);
+                test_box_magic, test_box_streaming == STREAMING_TWO_ARRAY ? "two-array" : "in-place",
+                plan->npositions, plan->npositions - 2, DRAG_SEED);
         fprintf(outs[o], "%-16s %-4s %6s %5s %9s %9s %9s %9s %9s %9s %8s\n", "scheme", "op", "radius", "tau", "mean", "worst",
                 "spread", "mean_m", "worst_m", "spread_m", "seconds");
     }

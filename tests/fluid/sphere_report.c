@@ -129,7 +129,8 @@ int main(int argc, char **argv)
         const int bad = drag_plan_parse(&plan, argc > 3 ? argc - 3 : 0, argv + 3);
         if (bad != 0) {
             fprintf(stderr, "sphere_report: bad %s option '%s' (schemes=cli,multireflection,... collisions=bgk,trt "
-                            "radii=4,8 taus=0.6,1,1.5 positions=N, N from 2 to 256)\n", what, argv[3 + bad - 1]);
+                            "radii=4,8 taus=0.6,1,1.5 positions=N, N from 2 to 256 magic=L precision=single|double "
+                            "streaming=two_array|in_place)\n", what, argv[3 + bad - 1]);
             return 2;
         }
         const char *dir = argc > 2 ? argv[2] : "build/report";

@@ -7,6 +7,7 @@
 
 precision_t test_box_precision = PRECISION_DOUBLE;
 double test_box_magic = 3.0 / 16.0;
+streaming_t test_box_streaming = STREAMING_IN_PLACE;
 
 scene_t test_box(int nx, int ny, int nz, double tau, collision_t collision)
 {
@@ -27,6 +28,7 @@ scene_t test_box(int nx, int ny, int nz, double tau, collision_t collision)
     s.fluid.collision = collision;
     s.fluid.magic = test_box_magic;
     s.fluid.precision = test_box_precision;
+    s.fluid.streaming = test_box_streaming;
     s.run.end_time = 1.0;
     s.run.output_interval = 1.0;
     return s;

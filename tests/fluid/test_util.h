@@ -12,6 +12,8 @@
 extern precision_t test_box_precision;
 /* TRT magic parameter of test_box (sphere_report drag magic=...; 3/16 unless set) */
 extern double test_box_magic;
+/* The population layout of test_box (sphere_report drag streaming=...; in place unless set) */
+extern streaming_t test_box_streaming;
 scene_t test_box(int nx, int ny, int nz, double tau, collision_t collision);
 /* Creates the fluid or fails the current test; NULL on failure. */
 fluid_t *test_fluid(const scene_t *s);

@@ -128,6 +128,16 @@ static double ref_speed(const ref_t *ref, double gap)
 }
 
 /* One sphere above the floor z = 0 (a wall of the given kind) in water, lubrication on. */
+/* The film of these tests: water-like density, viscosity MU, cut-off HC, min_gap HMIN. */
+static void film_on(rigid_config_t *cfg)
+{
+    cfg->fluid_density = 1000.0;
+    cfg->fluid_viscosity = MU / 1000.0;
+    cfg->lubrication = 1;
+    cfg->lub_cutoff = HC;
+    cfg->lub_min_gap = HMIN;
+}
+
 static rigid_config_t film_cfg(const rigid_sphere_cfg_t *s, const rigid_body_cfg_t *b, rigid_wall_kind_t kind)
 {
     rigid_config_t cfg = test_cfg(1, s, 1, b, 0, NULL);
@@ -135,11 +145,7 @@ static rigid_config_t film_cfg(const rigid_sphere_cfg_t *s, const rigid_body_cfg
     cfg.wall_kind[2][0] = kind;
     cfg.box_lo[2] = 0.0;
     cfg.box_hi[2] = 1e-3;
-    cfg.fluid_density = 1000.0;
-    cfg.fluid_viscosity = MU / 1000.0;
-    cfg.lubrication = 1;
-    cfg.lub_cutoff = HC;
-    cfg.lub_min_gap = HMIN;
+    film_on(&cfg);
     return cfg;
 }
 
@@ -272,11 +278,7 @@ static void test_two_spheres(void)
     rigid_sphere_cfg_t s[2] = {{{0.3e-3, 0.5e-3, 0.5e-3}, ra, 0}, {{0.3e-3 + ra + rb + gap, 0.5e-3, 0.5e-3}, rb, 1}};
     rigid_body_cfg_t b[2] = {{RHO, {u, 0, 0}, {0, 0, 0}, 0}, {RHO, {-u, 0, 0}, {0, 0, 0}, 0}};
     rigid_config_t cfg = test_cfg(2, s, 2, b, 0, NULL);
-    cfg.fluid_density = 1000.0;
-    cfg.fluid_viscosity = MU / 1000.0;
-    cfg.lubrication = 1;
-    cfg.lub_cutoff = HC;
-    cfg.lub_min_gap = HMIN;
+    film_on(&cfg);
     rigid_t *r = NULL;
     CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &r), STATUS_OK);
     double ma, mb, p0[3], p1[3], l[3];
@@ -313,11 +315,7 @@ static double drift_energy_ratio(int one_body)
     rigid_body_cfg_t b[2] = {{RHO, {-v, 0, 0}, {0, 0, 0}, 0}, {RHO, {v, 0, 0}, {0, 0, 0}, 0}};
     rigid_connection_cfg_t c = {0, 1, lim, 0, 0};
     rigid_config_t cfg = one_body ? test_cfg(2, s, 1, b, 1, &c) : test_cfg(2, s, 2, b, 0, NULL);
-    cfg.fluid_density = 1000.0;
-    cfg.fluid_viscosity = MU / 1000.0;
-    cfg.lubrication = 1;
-    cfg.lub_cutoff = HC;
-    cfg.lub_min_gap = HMIN;
+    film_on(&cfg);
     rigid_t *r = NULL;
     CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &r), STATUS_OK);
     const double zero[3] = {0, 0, 0}, pull[3] = {-2 * lim, 0, 0}, push[3] = {2 * lim, 0, 0};
