@@ -17,7 +17,7 @@
  * 046708, for the cut-off). The lattice resolves the flow in a gap of a few
  * cells; below that its force depends on whether a row of nodes lies in the
  * gap. So the fluid leaves out its own normal force on the zone where the
- * surfaces are closer than h_c (fluid/spheres.c film_partner), and this file
+ * surfaces are closer than h_c (fluid/sphere_links.c film_partner), and this file
  * gives the film force of that zone: in lubrication theory (Reynolds) the
  * pressure at distance rho from the line of centres is 3 mu reff vn / h(rho)^2,
  * h = h_0 + rho^2/(2 reff), whose integral over h < h_c is

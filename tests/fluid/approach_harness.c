@@ -64,7 +64,7 @@ long harness_approach(const approach_setup_t *set, const double *gaps, int n, ap
     s.fluid.boundary_scheme = BOUNDARY_CLI;
     s.fluid.force_method = FORCE_GALILEAN;
     s.fluid.refill = REFILL_EXTRAPOLATION;
-    /* the film zone of the fluid (spheres.c film_partner) at the harness's cut-off */
+    /* the film zone of the fluid (fluid/sphere_links.c film_partner) at the harness's cut-off */
     s.contacts.lubrication.enabled = set->cutoff > 0.0;
     s.contacts.lubrication.cutoff = set->cutoff;
     scene_sphere_t sph[2];
