@@ -152,20 +152,6 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     const char *ov = getenv("AGGLO_OVERLAP");
     fl->overlap = !(ov != NULL && strcmp(ov, "0") == 0);
     fl->layout = fl->streaming == STREAMING_TWO_ARRAY ? LAYOUT_PULL : LAYOUT_SWAPPED;
-    if (fl->streaming == STREAMING_IN_PLACE && scene->fluid.boundary_scheme == BOUNDARY_MULTIREFLECTION &&
-        scene_total_spheres(scene) > 0 && fabs(1.0 - fl->units.omega_minus) < SPHERES_MR_DECAY_MIN) {
-        /* spheres.c recovers the pre-collision n^- as n~^- / (1 - omega_minus) */
-        st = log_msg(log, STATUS_ERROR, "fluid",
-                     "%s: fluid.boundary_scheme multireflection with fluid.streaming in_place needs omega_minus "
-                     "outside [0.95, 1.05] (here %.4g, from fluid.tau %.6g and fluid.magic %.4g): the collision then "
-                     "forgets the pre-collision populations the scheme needs. Set fluid.streaming: two_array, or "
-                     "another fluid.magic",
-                     fl->path ? fl->path : "(scene)", fl->units.omega_minus, scene->fluid.tau, scene->fluid.magic);
-        free(fl->path);
-        decomp_free(&fl->d);
-        free(fl);
-        return st;
-    }
     int have = 1;
     for (int k = 0; k < fluid_arrays(fl); k++) {
         fl->f[k] = alloc_populations(&fl->g, fluid_value_bytes(fl));
@@ -205,6 +191,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
         init_profile(fl, scene);
     }
     st = walls_build(&fl->walls, &fl->g, scene, &fl->units, &fl->d, log);
+    fl->walls.flags = fl->flags;
     if (st == STATUS_OK) {
         st = spheres_init(&fl->spheres, scene, &fl->units, &fl->g, &fl->d, log);
     }
@@ -429,7 +416,7 @@ enum { OVERLAP_SLICES = 4 };
  * cell and population: measured here, 2 ranks cut along x at 128^3, 37.4
  * against 25.5 ms per step in sequence; so fluid_step does not overlap then
  * (the kernel's boxes allow it: kernel.h). */
-static void step_overlapped(fluid_t *fl, const pops_t *p, const pops_t *prev)
+static void step_overlapped(fluid_t *fl, const pops_t *p)
 {
     const grid_t *g = &fl->g;
     const int n0 = g->n[0], n1 = g->n[1], n2 = g->n[2];
@@ -438,7 +425,7 @@ static void step_overlapped(fluid_t *fl, const pops_t *p, const pops_t *prev)
     walls_halo_early(&fl->walls, g, p);
     walls_links(&fl->walls, p, WALLS_EARLY);
     if (fl->spheres.n > 0) {
-        spheres_fill(&fl->spheres, p, prev, SPHERES_HOLD_OUTER);
+        spheres_fill(&fl->spheres, p, SPHERES_HOLD_OUTER);
     }
     /* the inner rows in slices while the exchanges with other ranks are in
      * flight (a local periodic copy has nothing in flight) */
@@ -478,11 +465,6 @@ static void step_overlapped(fluid_t *fl, const pops_t *p, const pops_t *prev)
 status_t fluid_step(fluid_t *fl)
 {
     const pops_t p = fluid_pops(fl);
-    const int two = fl->streaming == STREAMING_TWO_ARRAY;
-    pops_t prev;
-    if (two) {
-        pops_init(&prev, &fl->g, fl->f[1 - fl->cur], fl->single, LAYOUT_PULL);
-    }
     if (fl->spheres.n > 0) {
         share_kinematics(fl);
         spheres_advance_prescribed(&fl->spheres, fl->step);
@@ -499,18 +481,18 @@ status_t fluid_step(fluid_t *fl)
     /* blocks of fewer than 3 cells along y or z have no inner rows; a cut
      * across x costs more than the overlap saves (step_overlapped) */
     if (exchanged && !x_cut && fl->overlap && fl->g.n[1] >= 3 && fl->g.n[2] >= 3) {
-        step_overlapped(fl, &p, two ? &prev : NULL);
+        step_overlapped(fl, &p);
     } else {
         walls_fill(&fl->walls, &fl->g, &p);
         if (fl->spheres.n > 0) {
-            spheres_fill(&fl->spheres, &p, two ? &prev : NULL, SPHERES_ALL);
+            spheres_fill(&fl->spheres, &p, SPHERES_ALL);
         }
         update(fl, NULL);
     }
     if (fl->spheres.n > 0) {
         spheres_loads(&fl->spheres);
     }
-    if (two) {
+    if (fl->streaming == STREAMING_TWO_ARRAY) {
         fl->cur = 1 - fl->cur;
     } else {
         fl->layout = fl->layout == LAYOUT_SWAPPED ? LAYOUT_PUSHED : LAYOUT_SWAPPED;

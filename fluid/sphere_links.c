@@ -116,12 +116,68 @@ static int film_partner(const spheres_t *sp, int k, const double rw[3], const in
  * direction q with x_f + c_q solid whose ray hits k first (Eq. 5, nearest
  * intersection over the candidates). A link thus belongs to exactly one
  * sphere and the spheres build their lists independently. */
+/* The key of a link: its cell (unwrapped global coordinates, as the box
+ * about the centre gives them) and q, in the order of the scan below. */
+static uint64_t link_key(const int X[3], int q)
+{
+    return ((uint64_t)(X[2] + 32768) << 37) | ((uint64_t)(X[1] + 32768) << 21) | ((uint64_t)(X[0] + 32768) << 5) |
+           (uint64_t)q;
+}
+
+/* Keeps the pre-collision pairs of the list about to be rebuilt. */
+static int carry_out(link_list_t *list)
+{
+    size_t m = 0;
+    for (size_t n = 0; n < list->n; n++) {
+        m += list->l[n].has_pre != 0;
+    }
+    if (!spheres_grow((void **)&list->carry, &list->capcarry, m, sizeof *list->carry)) {
+        return 0;
+    }
+    list->ncarry = 0;
+    for (size_t n = 0; n < list->n; n++) {
+        const sphere_link_t *l = &list->l[n];
+        if (l->has_pre) {
+            spheres_carry_t *c = &list->carry[list->ncarry++];
+            c->key = l->key;
+            c->pre[0] = l->pre[0];
+            c->pre[1] = l->pre[1];
+        }
+    }
+    return 1;
+}
+
+/* Gives the rebuilt links the pairs of the same (cell, q) from before; both
+ * lists are in key order. A link that was another sphere's, or whose box
+ * moved across a periodic face, starts without (spheres_fill). */
+static void carry_in(link_list_t *list)
+{
+    size_t j = 0;
+    for (size_t n = 0; n < list->n && j < list->ncarry; n++) {
+        sphere_link_t *l = &list->l[n];
+        while (j < list->ncarry && list->carry[j].key < l->key) {
+            j++;
+        }
+        if (j < list->ncarry && list->carry[j].key == l->key) {
+            l->pre[0] = list->carry[j].pre[0];
+            l->pre[1] = list->carry[j].pre[1];
+            l->has_pre = 1;
+            j++;
+        }
+    }
+    list->ncarry = 0;
+}
+
 static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, int k, int *cand,
                         link_list_t *list)
 {
     const sphere_t *p = &sp->s[k];
+    if (!sp->carried && !carry_out(list)) {
+        return 0;
+    }
     if (!spheres_near_block(sp, p->c, p->r + 2.0, sp->lo, sp->nb)) {
         list->n = 0;
+        list->ncarry = 0;
         return 1; /* no cell of this block links to it */
     }
     int nc = candidates(sp, k, cand);
@@ -223,6 +279,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                         return 0;
                     }
                     sphere_link_t *l = &links[nl++];
+                    l->key = link_key(X, q);
+                    l->has_pre = 0;
                     l->q = q;
                     l->sphere = k;
                     l->delta = delta;
@@ -249,6 +307,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
     list->l = links;
     list->cap = cap;
     list->n = nl;
+    carry_in(list);
     return 1;
 }
 
@@ -269,6 +328,7 @@ status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, con
         }
         free(cand);
     }
+    sp->carried = 0;
     sp->nlinks = 0;
     for (int k = 0; k < sp->n; k++) {
         sp->nlinks += sp->lists[k].n;

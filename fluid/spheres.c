@@ -227,6 +227,7 @@ void spheres_free(spheres_t *sp)
     free(sp->s);
     for (int k = 0; k < sp->n && sp->lists != NULL; k++) {
         free(sp->lists[k].l);
+        free(sp->lists[k].carry);
     }
     free(sp->lists);
     free(sp->solid);
@@ -525,11 +526,11 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     return st;
 }
 
-static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0, const pops_t *prev,
+static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0,
                                                              const link_list_t *list, int galilean, double inv_decay,
                                                              spheres_part_t part, layout_state_t state, int single);
 
-void spheres_fill(spheres_t *sp, const pops_t *f, const pops_t *prev, spheres_part_t part)
+void spheres_fill(spheres_t *sp, const pops_t *f, spheres_part_t part)
 {
     const int galilean = sp->force == FORCE_GALILEAN;
     /* n^- of the pre-collision populations from the post-collision ones. TRT
@@ -538,16 +539,86 @@ void spheres_fill(spheres_t *sp, const pops_t *f, const pops_t *prev, spheres_pa
      * f~^- - 3 w c.j~ = (1 - w-)(f^- - 3 w c.j): exact, so that both layouts
      * give the same result, and it treats the initial state (an equilibrium)
      * as what it is, a state after a collision. Near w- = 1 the collision
-     * forgets n^-: two arrays then read the pre-collision values from the other
-     * array; in place fluid.c refuses that combination. */
+     * forgets n^-. So each link keeps the pre-collision pair of its cell for
+     * the next fill (sphere_link_t.pre), which is exact in either layout and
+     * for any w-; the recovery serves a link new this step, and near w- = 1
+     * such a link goes without the correction for that step. (Reading the
+     * pair of a new link from the other array, which two arrays could, made
+     * a fixed sphere's steady drag at w- = 1 depend on its first step and
+     * creep, 2e-4 after 1500 steps: tests/fluid/test_layouts.c.) */
     const double inv_decay = 1.0 / (1.0 - sp->omega_minus);
 #pragma omp parallel for schedule(dynamic, 1)
     for (int k = 0; k < sp->n; k++) {
         const link_list_t *l = &sp->lists[k];
-#define FILL(state, single) fill_sphere(sp, f, prev, l, galilean, inv_decay, part, state, single)
+#define FILL(state, single) fill_sphere(sp, f, l, galilean, inv_decay, part, state, single)
         POPS_SPECIALISE(f, FILL);
 #undef FILL
     }
+}
+
+size_t spheres_pairs_bytes(const spheres_t *sp)
+{
+    size_t m = 0;
+    for (int k = 0; k < sp->n; k++) {
+        const link_list_t *list = &sp->lists[k];
+        if (sp->carried) {
+            m += list->ncarry;
+        } else {
+            for (size_t n = 0; n < list->n; n++) {
+                m += list->l[n].has_pre != 0;
+            }
+        }
+    }
+    return (size_t)sp->n * sizeof(uint64_t) + m * sizeof(spheres_carry_t);
+}
+
+void spheres_pairs_out(const spheres_t *sp, unsigned char *buf)
+{
+    for (int k = 0; k < sp->n; k++) {
+        const link_list_t *list = &sp->lists[k];
+        unsigned char *count = buf;
+        buf += sizeof(uint64_t);
+        uint64_t m = 0;
+        if (sp->carried) {
+            m = list->ncarry;
+            memcpy(buf, list->carry, list->ncarry * sizeof *list->carry);
+            buf += list->ncarry * sizeof *list->carry;
+        } else {
+            for (size_t n = 0; n < list->n; n++) {
+                const sphere_link_t *l = &list->l[n];
+                if (l->has_pre) {
+                    const spheres_carry_t c = {l->key, {l->pre[0], l->pre[1]}};
+                    memcpy(buf, &c, sizeof c);
+                    buf += sizeof c;
+                    m++;
+                }
+            }
+        }
+        memcpy(count, &m, sizeof m);
+    }
+}
+
+size_t spheres_pairs_in(spheres_t *sp, const unsigned char *buf, size_t size)
+{
+    const unsigned char *p = buf;
+    for (int k = 0; k < sp->n; k++) {
+        link_list_t *list = &sp->lists[k];
+        uint64_t m;
+        if ((size_t)(p - buf) + sizeof m > size) {
+            return (size_t)-1;
+        }
+        memcpy(&m, p, sizeof m);
+        p += sizeof m;
+        if (m > (size - (size_t)(p - buf)) / sizeof(spheres_carry_t) ||
+            !spheres_grow((void **)&list->carry, &list->capcarry, (size_t)m, sizeof *list->carry)) {
+            return (size_t)-1;
+        }
+        memcpy(list->carry, p, (size_t)m * sizeof *list->carry);
+        list->ncarry = (size_t)m;
+        p += (size_t)m * sizeof *list->carry;
+    }
+    sp->carried = 1;
+    return (size_t)(p - buf);
 }
 
 void spheres_write_outer(spheres_t *sp, const pops_t *f)
@@ -588,7 +659,7 @@ void spheres_loads(spheres_t *sp)
     }
 }
 
-static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0, const pops_t *prev,
+static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0,
                                                              const link_list_t *list, int galilean, double inv_decay,
                                                              spheres_part_t part, layout_state_t state, int single)
 {
@@ -600,6 +671,9 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
      * the sphere's (common/exact_sum.h): the same bits on any ranks */
     double cl[8] = {0.0};
     sphere_t *p = list->n > 0 ? &sp->s[list->l[0].sphere] : NULL;
+    /* the recovery of n^- from the post-collision populations (below) holds
+     * away from omega_minus = 1 */
+    const int use_decay = fabs(1.0 - sp->omega_minus) >= SPHERES_MR_DECAY_MIN;
     for (size_t n = 0; n < list->n; n++) {
         sphere_link_t *l = &list->l[n];
         const int q = l->q, o = lb_opposite(q);
@@ -635,8 +709,10 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         const double A = l->a[0] + l->a[1] + l->a[2];
         const double f_old = pops_post(f, q, l->xf);
         double f_new = l->a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
-        if (l->a[1] != 0.0 || l->b[0] != 0.0 || l->b[1] != 0.0) {
-            f_new += l->a[1] * spheres_post(sp, f, q, l->xff) + l->b[0] * pops_post(f, o, l->xf);
+        const int linear = l->a[1] != 0.0 || l->b[0] != 0.0 || l->b[1] != 0.0;
+        const double f_ff = (linear || l->corr != 0.0) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
+        if (linear) {
+            f_new += l->a[1] * f_ff + l->b[0] * pops_post(f, o, l->xf);
         }
         if (l->a[2] != 0.0) {
             f_new += l->a[2] * spheres_post(sp, f, q, l->xfff);
@@ -644,7 +720,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         if (l->b[1] != 0.0) {
             f_new += l->b[1] * spheres_post(sp, f, o, l->xff);
         }
-        if (l->corr != 0.0 && !l->fresh) {
+        if (l->corr != 0.0 && !l->fresh && (l->has_pre || use_decay)) {
             /* antisymmetric non-equilibrium of the pre-collision populations at x_f:
              * f_q came from x_f - c_q, f_qbar from the solid side, the very slot of this link.
              * It is taken against the pre-collision momentum j - F (Guo's collision adds
@@ -653,18 +729,25 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
              * flow comes out 0.3% low in 12 cells (tau 1); against j - F it is exact to
              * round-off for every delta, tau and Lambda (checked with a 1D channel). */
             double nm;
-            if (prev != NULL && fabs(1.0 - sp->omega_minus) < SPHERES_MR_DECAY_MIN) {
+            if (l->has_pre) {
+                /* the pair the last fill kept */
                 double cu0 = 0.0;
                 for (int a = 0; a < 3; a++) {
                     cu0 += lb_c[q][a] * (j[a] - sp->body_force[a]);
                 }
-                nm = 0.5 * (pops_read(prev, q, pops_in_slot(prev, q, l->xf)) - pops_read(prev, o, pops_in_slot(prev, o, l->xf))) -
-                     3.0 * lb_w[q] * cu0;
+                nm = 0.5 * (l->pre[0] - l->pre[1]) - 3.0 * lb_w[q] * cu0;
             } else {
                 const double cj = lb_c[q][0] * j[0] + lb_c[q][1] * j[1] + lb_c[q][2] * j[2];
                 nm = (0.5 * (f_old - pops_post(f, o, l->xf)) - 3.0 * lb_w[q] * cj) * inv_decay;
             }
             f_new += l->corr * nm;
+        }
+        if (l->corr != 0.0) {
+            /* the pre-collision pair of x_f at the next fill: f~_q(x_f - c_q)
+             * streams to x_f, f_new is what x_f receives from the wall */
+            l->pre[0] = f_ff;
+            l->pre[1] = f_new;
+            l->has_pre = l->xff != l->xf;
         }
         if (part == SPHERES_HOLD_OUTER && l->outer) {
             l->fnew = f_new;

@@ -90,16 +90,34 @@ typedef struct {
     int outer;            /* x_f lies in an outer row of the block: y or z at its faces (spheres_fill) */
     double fnew;          /* outer: the value to write, held back (SPHERES_HOLD_OUTER) */
     double delta;
+    /* multireflection: the pre-collision pair (f_q, f_qbar) of x_f for the
+     * next fill, which the fill keeps as it goes: f_q is the post-collision
+     * f~_q(x_f - c_q) it reads (it streams to x_f), f_qbar the value it
+     * writes. In place the collision may have forgotten them (omega_minus
+     * near 1). Carried over a rebuild of the links by key (spheres_carry_t). */
+    double pre[2];
+    int has_pre;
+    uint64_t key;         /* (unwrapped cell, q), increasing along a sphere's list (sphere_links.c) */
 } sphere_link_t;
 
+/* A link's pre-collision pair while the links are rebuilt, or saved in a
+ * state (fluid/state.c). */
+typedef struct {
+    uint64_t key;
+    double pre[2];
+} spheres_carry_t;
+
 /* |1 - omega_minus| below which multireflection cannot recover the
- * pre-collision populations from the post-collision ones (spheres_fill); in
- * place, fluid_create refuses such a scene. */
+ * pre-collision populations from the post-collision ones (spheres_fill): a
+ * link without its kept pair (new this step) and without the other array
+ * then goes without the correction for that step. */
 #define SPHERES_MR_DECAY_MIN 0.05
 
 typedef struct {
     sphere_link_t *l;
     size_t n, cap;
+    spheres_carry_t *carry; /* the pairs of the last links while they are rebuilt, in key order */
+    size_t ncarry, capcarry;
 } link_list_t;
 
 typedef struct spheres_s {
@@ -127,6 +145,7 @@ typedef struct spheres_s {
     force_method_t force;
     int first;
     int stale;            /* the links do not match the flags (a restored state): map anew */
+    int carried;          /* the lists' carry holds the pairs of a restored state (state.c) */
     double omega_minus;
     double film_cutoff;   /* cells: the lubrication cut-off of the film zone, 0 without a film (spheres_fill) */
     int film_face[6];     /* 1: a face that carries a film (no-slip, moving, free-slip walls) */
@@ -140,21 +159,29 @@ void spheres_free(spheres_t *sp);
 /* Map stage on post-collision populations p: flags, covering, refill, links. */
 status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_t *p, const log_t *log);
 /* Fill stage: boundary populations and the momentum exchanged per sphere.
- * Multireflection needs the pre-collision populations of x_f: with two
- * arrays, prev is the other array (PULL state: the previous step's values
- * that x_f pulled); in place (prev NULL) they follow from the post-collision
- * ones (spheres.c). A link writes what its x_f receives. With
+ * Multireflection needs the pre-collision populations of x_f: each link
+ * keeps them from its last fill (sphere_link_t.pre); a link new this step
+ * recovers them from the post-collision ones away from omega_minus = 1
+ * (spheres.c), and goes without the correction that step near it: the same
+ * in either layout. A link writes what its x_f receives. With
  * SPHERES_HOLD_OUTER the links of cells in outer rows (y or z at a face of
  * the block) keep their values until spheres_write_outer: their slots are written by the
  * halo exchange too, which must come first, while every link must read
  * before the update of the inner rows (in place it overwrites values the
  * links read): fluid.c step_overlapped. */
 typedef enum { SPHERES_ALL, SPHERES_HOLD_OUTER } spheres_part_t;
-void spheres_fill(spheres_t *sp, const pops_t *p, const pops_t *prev, spheres_part_t part);
+void spheres_fill(spheres_t *sp, const pops_t *p, spheres_part_t part);
 void spheres_write_outer(spheres_t *sp, const pops_t *p);
 /* After the fill of every link: each sphere's load of this step (summed
  * over ranks; collective). */
 void spheres_loads(spheres_t *sp);
+/* The pre-collision pairs the links hold (or, after a restore, carry) for
+ * the next fill: their count over all spheres, and copy out (in sphere and
+ * key order, each sphere's count first) / in, for a state. spheres_pairs_in
+ * returns the bytes read, (size_t)-1 if size is too short or out of memory. */
+size_t spheres_pairs_bytes(const spheres_t *sp);
+void spheres_pairs_out(const spheres_t *sp, unsigned char *buf);
+size_t spheres_pairs_in(spheres_t *sp, const unsigned char *buf, size_t size);
 /* Moves prescribed and fixed spheres by one step (dt = 1). */
 void spheres_advance_prescribed(spheres_t *sp, long step);
 /* Wraps a centre (global lattice coordinates) onto the periodic axes. */

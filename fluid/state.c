@@ -4,9 +4,10 @@
  * its state), the step counter, the population arrays of every allocated
  * cell (in place: the one array; two arrays: the current post-collision
  * values, and the previous ones that multireflection reads), the cell flags,
- * the sphere records and the list of solid cells (the map stage needs the
- * previous solid set to find uncovered cells). Links are rebuilt by the
- * next step, so they are not saved. Same build, same scene. */
+ * the sphere records, the list of solid cells (the map stage needs the
+ * previous solid set to find uncovered cells) and the pre-collision pairs
+ * the links keep for multireflection (spheres.h). Links are rebuilt by the
+ * next step, which gives them their pairs back. Same build, same scene. */
 #include "fluid_internal.h"
 
 #include "lattice.h"
@@ -15,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define STATE_MAGIC 0x464c5549444c4232ull /* "FLUIDLB2" */
+#define STATE_MAGIC 0x464c5549444c4233ull /* "FLUIDLB3" */
 
 typedef struct {
     uint64_t magic;
@@ -33,7 +34,8 @@ typedef struct {
 size_t fluid_state_size(const fluid_t *fl)
 {
     return sizeof(state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.stride * fluid_value_bytes(fl) + fl->g.ncells +
-           (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t);
+           (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t) +
+           spheres_pairs_bytes(&fl->spheres);
 }
 
 status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
@@ -74,7 +76,9 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
     }
     if (fl->spheres.nsolid > 0) {
         memcpy(p, fl->spheres.solid, fl->spheres.nsolid * sizeof(size_t));
+        p += fl->spheres.nsolid * sizeof(size_t);
     }
+    spheres_pairs_out(&fl->spheres, p);
     return STATUS_OK;
 }
 
@@ -104,6 +108,29 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "state of %zu bytes is shorter than its %zu bytes", size,
                        need);
     }
+    /* the pairs: a count per sphere, then that many records, within the buffer */
+    const unsigned char *pairs = (const unsigned char *)buf + need;
+    size_t rest = size - need;
+    for (int k = 0; k < h.nspheres; k++) {
+        uint64_t m;
+        if (rest < sizeof m) {
+            rest = (size_t)-1;
+            break;
+        }
+        memcpy(&m, pairs, sizeof m);
+        pairs += sizeof m;
+        rest -= sizeof m;
+        if (m > rest / sizeof(spheres_carry_t)) {
+            rest = (size_t)-1;
+            break;
+        }
+        pairs += m * sizeof(spheres_carry_t);
+        rest -= m * sizeof(spheres_carry_t);
+    }
+    if (rest == (size_t)-1) {
+        return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                       "state of %zu bytes ends inside the pre-collision pairs of its boundary links", size);
+    }
     if (h.nsolid > fl->spheres.cap_solid) {
         size_t *ns = realloc(fl->spheres.solid, h.nsolid * sizeof(size_t));
         if (ns == NULL) {
@@ -128,6 +155,10 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     }
     if (h.nsolid > 0) {
         memcpy(fl->spheres.solid, p, h.nsolid * sizeof(size_t));
+        p += h.nsolid * sizeof(size_t);
+    }
+    if (spheres_pairs_in(&fl->spheres, p, size - need) == (size_t)-1) {
+        return log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory restoring the pre-collision pairs of the links");
     }
     fl->spheres.nsolid = h.nsolid;
     fl->spheres.covered_total = h.covered;

@@ -136,6 +136,9 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
     for (int a = 0; a < 3; a++) {
         w->periodic[a] = s->domain.faces[2 * a].type == FACE_PERIODIC && d->dims[a] == 1;
     }
+    /* the slip of half-way bounce-back under TRT (walls.h); BGK keeps the
+     * paper's plain bounce-back and its slip (Lambda = (tau - 1/2)^2) */
+    w->kappa = s->fluid.collision == COLLISION_TRT ? (16.0 * s->fluid.magic - 3.0) / 24.0 : 0.0;
     size_t cap = 0, capc = 0;
     if (g->ncells > UINT32_MAX) {
         return log_msg(log, STATUS_ERROR, "fluid",
@@ -213,6 +216,17 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                         }
                         l.kind = LINK_BOUNCE;
                         l.coef = 6.0 * lb_w[q] * (lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2]);
+                        l.axis = (int16_t)(best / 2);
+                        l.cell2 = l.cell;
+                        if (face->type != FACE_VELOCITY_INLET) {
+                            /* the two cells inwards along the normal, for the slip correction */
+                            int x3[3] = {x, y, z};
+                            x3[best / 2] += best % 2 == 0 ? 2 : -2;
+                            if (x3[best / 2] >= 1 && x3[best / 2] <= g->n[best / 2]) {
+                                x3[best / 2] += best % 2 == 0 ? -1 : 1;
+                                l.cell2 = grid_index(g, x3[0], x3[1], x3[2]);
+                            }
+                        }
                         break;
                     }
                     case FACE_PRESSURE_OUTLET: {
@@ -409,16 +423,34 @@ void walls_links_prepare(const walls_t *w, const pops_t *p)
     {
     /* the links of a cell are consecutive (walls_build): its moments once */
     size_t last = (size_t)-1;
-    double rho_last = 0.0, u_last[3];
+    double rho_last = 0.0, u_last[3], uk_last[3] = {0.0, 0.0, 0.0};
 #pragma omp for schedule(static)
     for (ptrdiff_t i = 0; i < n; i++) {
         const ghost_link_t *l = &w->links[i];
-        if (l->kind == LINK_BOUNCE && l->coef != 0.0) {
+        const int slip = w->kappa != 0.0 && l->kind == LINK_BOUNCE && l->cell2 != l->cell;
+        if (l->kind == LINK_BOUNCE && (l->coef != 0.0 || slip)) {
             if (l->cell != last) {
                 last = l->cell;
                 moments(p, last, &rho_last, u_last);
+                if (slip) {
+                    /* kappa P_t u'' along the inward normal, from fluid cells only (a sphere may cover them) */
+                    const size_t c2 = l->cell2, c3 = 2 * l->cell2 - l->cell;
+                    uk_last[0] = uk_last[1] = uk_last[2] = 0.0;
+                    if (w->flags == NULL || (w->flags[c2] == 0 && w->flags[c3] == 0)) {
+                        double r2, r3, u2[3], u3[3];
+                        moments(p, c2, &r2, u2);
+                        moments(p, c3, &r3, u3);
+                        for (int a = 0; a < 3; a++) {
+                            uk_last[a] = a == l->axis ? 0.0 : w->kappa * (u_last[a] - 2.0 * u2[a] + u3[a]);
+                        }
+                    }
+                }
             }
             w->pre[i].v[0] = rho_last;
+            w->pre[i].v[1] = slip ? 6.0 * lb_w[l->q] * rho_last *
+                                        (lb_c[l->q][0] * uk_last[0] + lb_c[l->q][1] * uk_last[1] +
+                                         lb_c[l->q][2] * uk_last[2])
+                                  : 0.0;
         } else if (l->kind == LINK_ANTI) {
             double r1, r2, u1[3], u2[3];
             moments(p, l->cell, &r1, u1);
@@ -454,7 +486,9 @@ void walls_links(const walls_t *w, const pops_t *p, walls_part_t part)
         case LINK_COPY:
             break; /* all in w->copies */
         case LINK_BOUNCE: {
-            const double v = l->coef != 0.0 ? bounced + l->coef * w->pre[i].v[0] : bounced;
+            const double v = l->coef != 0.0 || w->kappa != 0.0
+                                 ? bounced + l->coef * w->pre[i].v[0] + (w->kappa != 0.0 ? w->pre[i].v[1] : 0.0)
+                                 : bounced;
             pops_write(p, l->q, dst, v);
             break;
         }

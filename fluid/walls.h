@@ -7,7 +7,16 @@
  *               from the cell beside the ghost);
  *   bounce      half-way bounce-back, with the moving-wall term
  *               6 w_q rho c_q.u_w (Ladd, J. Fluid Mech. 271 (1994) 285)
- *               for moving walls and velocity inlets;
+ *               for moving walls and velocity inlets; with TRT at a magic
+ *               parameter Lambda other than 3/16, no-slip and moving walls
+ *               add the velocity kappa P_t (u(x_f) - 2 u(x_f + n) + u(x_f + 2n))
+ *               to the wall's, kappa = (16 Lambda - 3)/24, n the inward
+ *               normal, P_t the tangential part: half-way bounce-back puts
+ *               a parabolic flow's wall where it belongs only at Lambda = 3/16
+ *               and otherwise slips by u_s = (16 Lambda - 3)/24 g/nu (measured
+ *               exactly so for tau 0.6-2, Lambda 1/8-1/3: issue 11), and
+ *               -kappa u'' with u'' = -g/nu cancels that for any tangential
+ *               parabolic flow, the second difference being exact there;
  *   anti        anti-bounce-back pressure outlet (Ginzburg, Verhaeghe &
  *               d'Humieres 2008; Izquierdo & Fueyo 2008):
  *               f_q = -f~_qbar + 2 w_q rho_w [1 + 4.5 (c.u_w)^2 - 1.5 u_w^2],
@@ -34,10 +43,12 @@ typedef enum { LINK_COPY, LINK_BOUNCE, LINK_ANTI } link_kind_t;
  * cell receives from its ghost neighbour cell - c_q. */
 typedef struct {
     size_t cell;  /* the fluid cell the link ends in */
-    size_t cell2; /* anti: the next cell inwards, for the extrapolation of u_w */
+    size_t cell2; /* anti: the next cell inwards, for the extrapolation of u_w; bounce: the same for
+                   * the slip correction (cell + 2 (cell2 - cell) the one after), cell if none */
     double coef;  /* bounce: 6 w_q c_q.u_w (times rho); anti: rho_w */
     int q;
-    int kind;
+    int16_t kind;
+    int16_t axis; /* bounce: the axis normal to the face (slip correction) */
 } ghost_link_t;
 
 /* Copy link: in_slot(q, cell) <- post_slot(sq, src); 12 bytes, for the many
@@ -48,7 +59,8 @@ typedef struct {
 } copy_link_t;
 
 /* What a link reads of the cells' moments, taken before the step changes
- * them (walls_links_prepare): bounce, rho of its cell; anti, u_w. */
+ * them (walls_links_prepare): bounce, rho of its cell and the slip
+ * correction's term 6 w_q rho c_q.u_k; anti, u_w. */
 typedef struct {
     double v[3];
 } link_moments_t;
@@ -61,6 +73,8 @@ typedef struct {
     size_t ncopies;
     size_t nlinks_early, ncopies_early; /* the first ones: cells in inner rows (walls_links) */
     int periodic[3];     /* periodic axes with one rank: filled by a copy of the ghost layers, no list (walls.c) */
+    double kappa;        /* the slip correction of no-slip and moving walls (above); 0 without */
+    const uint8_t *flags; /* the cell flags (fluid.c): the correction reads fluid cells only */
     decomp_t *d;         /* the block (not owned): faces to other ranks are filled by its exchange */
 } walls_t;
 
