@@ -219,12 +219,13 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
     f->density = r->density;
     f->viscosity = r->viscosity;
     f->collision = r->collision ? *r->collision : COLLISION_TRT;
-    f->magic = opt(r->magic, 3.0 / 16.0);
     opt_vec(f->body_force, r->body_force, 0, 0, 0);
     opt_vec(f->initial_velocity, r->initial_velocity, 0, 0, 0);
     f->initial_profile = r->initial_profile ? *r->initial_profile : INITIAL_UNIFORM;
     f->channel_axis = -1;
-    f->boundary_scheme = r->boundary_scheme ? *r->boundary_scheme : BOUNDARY_CLI;
+    f->boundary_scheme = r->boundary_scheme ? *r->boundary_scheme : BOUNDARY_MULTIREFLECTION;
+    /* Lambda 1/4 makes multireflection's drag position independent (README issue 11); 3/16 suits the others */
+    f->magic = opt(r->magic, f->boundary_scheme == BOUNDARY_MULTIREFLECTION ? 0.25 : 3.0 / 16.0);
     f->refill = r->refill ? *r->refill : REFILL_EXTRAPOLATION;
     f->force_method = r->force ? *r->force : FORCE_GALILEAN;
     f->streaming = r->streaming ? *r->streaming : STREAMING_IN_PLACE;

@@ -421,8 +421,10 @@ void walls_links_prepare(const walls_t *w, const pops_t *p)
     const ptrdiff_t n = (ptrdiff_t)w->nlinks;
 #pragma omp parallel
     {
-    /* the links of a cell are consecutive (walls_build): its moments once */
+    /* the links of a cell are consecutive (walls_build): its moments once,
+     * the slip term once per normal (a cell at an edge has links of two faces) */
     size_t last = (size_t)-1;
+    int last_axis = -1;
     double rho_last = 0.0, u_last[3], uk_last[3] = {0.0, 0.0, 0.0};
 #pragma omp for schedule(static)
     for (ptrdiff_t i = 0; i < n; i++) {
@@ -431,18 +433,20 @@ void walls_links_prepare(const walls_t *w, const pops_t *p)
         if (l->kind == LINK_BOUNCE && (l->coef != 0.0 || slip)) {
             if (l->cell != last) {
                 last = l->cell;
+                last_axis = -1;
                 moments(p, last, &rho_last, u_last);
-                if (slip) {
-                    /* kappa P_t u'' along the inward normal, from fluid cells only (a sphere may cover them) */
-                    const size_t c2 = l->cell2, c3 = 2 * l->cell2 - l->cell;
-                    uk_last[0] = uk_last[1] = uk_last[2] = 0.0;
-                    if (w->flags == NULL || (w->flags[c2] == 0 && w->flags[c3] == 0)) {
-                        double r2, r3, u2[3], u3[3];
-                        moments(p, c2, &r2, u2);
-                        moments(p, c3, &r3, u3);
-                        for (int a = 0; a < 3; a++) {
-                            uk_last[a] = a == l->axis ? 0.0 : w->kappa * (u_last[a] - 2.0 * u2[a] + u3[a]);
-                        }
+            }
+            if (slip && l->axis != last_axis) {
+                /* kappa P_t u'' along the inward normal, from fluid cells only (a sphere may cover them) */
+                last_axis = l->axis;
+                const size_t c2 = l->cell2, c3 = 2 * l->cell2 - l->cell;
+                uk_last[0] = uk_last[1] = uk_last[2] = 0.0;
+                if (w->flags == NULL || (w->flags[c2] == 0 && w->flags[c3] == 0)) {
+                    double r2, r3, u2[3], u3[3];
+                    moments(p, c2, &r2, u2);
+                    moments(p, c3, &r3, u3);
+                    for (int a = 0; a < 3; a++) {
+                        uk_last[a] = a == l->axis ? 0.0 : w->kappa * (u_last[a] - 2.0 * u2[a] + u3[a]);
                     }
                 }
             }

@@ -255,9 +255,9 @@ static void test_defaults(void)
         CU_ASSERT_DOUBLE_EQUAL(s->domain.faces[f].pressure, 0, 0);
     }
     CU_ASSERT_EQUAL(s->fluid.collision, COLLISION_TRT);
-    CU_ASSERT_DOUBLE_EQUAL(s->fluid.magic, 3.0 / 16.0, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.magic, 0.25, 0);
     CU_ASSERT_DOUBLE_EQUAL(s->fluid.mach_limit, 0.3, 0);
-    CU_ASSERT_EQUAL(s->fluid.boundary_scheme, BOUNDARY_CLI);
+    CU_ASSERT_EQUAL(s->fluid.boundary_scheme, BOUNDARY_MULTIREFLECTION);
     CU_ASSERT_EQUAL(s->fluid.refill, REFILL_EXTRAPOLATION);
     CU_ASSERT_EQUAL(s->fluid.force_method, FORCE_GALILEAN);
     CU_ASSERT_EQUAL(s->fluid.force_averaging, -1); /* not given: per body (common/coupling.h) */
