@@ -124,26 +124,30 @@ static uint64_t link_key(const int X[3], int q)
            (uint64_t)q;
 }
 
-/* Keeps the pre-collision pairs of the list about to be rebuilt. */
-static int carry_out(link_list_t *list)
+size_t spheres_list_pairs(const link_list_t *list, unsigned char *out)
 {
     size_t m = 0;
     for (size_t n = 0; n < list->n; n++) {
-        m += list->l[n].has_pre != 0;
+        const sphere_link_t *l = &list->l[n];
+        if (l->has_pre) {
+            if (out != NULL) {
+                const spheres_carry_t c = {l->key, {l->pre[0], l->pre[1]}};
+                memcpy(out + m * sizeof c, &c, sizeof c);
+            }
+            m++;
+        }
     }
+    return m;
+}
+
+/* Keeps the pre-collision pairs of the list about to be rebuilt. */
+static int carry_out(link_list_t *list)
+{
+    const size_t m = spheres_list_pairs(list, NULL);
     if (!spheres_grow((void **)&list->carry, &list->capcarry, m, sizeof *list->carry)) {
         return 0;
     }
-    list->ncarry = 0;
-    for (size_t n = 0; n < list->n; n++) {
-        const sphere_link_t *l = &list->l[n];
-        if (l->has_pre) {
-            spheres_carry_t *c = &list->carry[list->ncarry++];
-            c->key = l->key;
-            c->pre[0] = l->pre[0];
-            c->pre[1] = l->pre[1];
-        }
-    }
+    list->ncarry = spheres_list_pairs(list, (unsigned char *)list->carry);
     return 1;
 }
 

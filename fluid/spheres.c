@@ -560,14 +560,7 @@ size_t spheres_pairs_bytes(const spheres_t *sp)
 {
     size_t m = 0;
     for (int k = 0; k < sp->n; k++) {
-        const link_list_t *list = &sp->lists[k];
-        if (sp->carried) {
-            m += list->ncarry;
-        } else {
-            for (size_t n = 0; n < list->n; n++) {
-                m += list->l[n].has_pre != 0;
-            }
-        }
+        m += sp->carried ? sp->lists[k].ncarry : spheres_list_pairs(&sp->lists[k], NULL);
     }
     return (size_t)sp->n * sizeof(uint64_t) + m * sizeof(spheres_carry_t);
 }
@@ -576,49 +569,52 @@ void spheres_pairs_out(const spheres_t *sp, unsigned char *buf)
 {
     for (int k = 0; k < sp->n; k++) {
         const link_list_t *list = &sp->lists[k];
-        unsigned char *count = buf;
-        buf += sizeof(uint64_t);
-        uint64_t m = 0;
+        uint64_t m;
         if (sp->carried) {
             m = list->ncarry;
-            memcpy(buf, list->carry, list->ncarry * sizeof *list->carry);
-            buf += list->ncarry * sizeof *list->carry;
+            memcpy(buf + sizeof m, list->carry, list->ncarry * sizeof *list->carry);
         } else {
-            for (size_t n = 0; n < list->n; n++) {
-                const sphere_link_t *l = &list->l[n];
-                if (l->has_pre) {
-                    const spheres_carry_t c = {l->key, {l->pre[0], l->pre[1]}};
-                    memcpy(buf, &c, sizeof c);
-                    buf += sizeof c;
-                    m++;
-                }
-            }
+            m = spheres_list_pairs(list, buf + sizeof m);
         }
-        memcpy(count, &m, sizeof m);
+        memcpy(buf, &m, sizeof m);
+        buf += sizeof m + (size_t)m * sizeof(spheres_carry_t);
     }
 }
 
-size_t spheres_pairs_in(spheres_t *sp, const unsigned char *buf, size_t size)
+size_t spheres_pairs_size(const unsigned char *buf, size_t size, int nspheres)
 {
-    const unsigned char *p = buf;
+    size_t at = 0;
+    for (int k = 0; k < nspheres; k++) {
+        uint64_t m;
+        if (size - at < sizeof m) {
+            return (size_t)-1;
+        }
+        memcpy(&m, buf + at, sizeof m);
+        at += sizeof m;
+        if (m > (size - at) / sizeof(spheres_carry_t)) {
+            return (size_t)-1;
+        }
+        at += (size_t)m * sizeof(spheres_carry_t);
+    }
+    return at;
+}
+
+int spheres_pairs_in(spheres_t *sp, const unsigned char *buf)
+{
     for (int k = 0; k < sp->n; k++) {
         link_list_t *list = &sp->lists[k];
         uint64_t m;
-        if ((size_t)(p - buf) + sizeof m > size) {
-            return (size_t)-1;
+        memcpy(&m, buf, sizeof m);
+        buf += sizeof m;
+        if (!spheres_grow((void **)&list->carry, &list->capcarry, (size_t)m, sizeof *list->carry)) {
+            return 0;
         }
-        memcpy(&m, p, sizeof m);
-        p += sizeof m;
-        if (m > (size - (size_t)(p - buf)) / sizeof(spheres_carry_t) ||
-            !spheres_grow((void **)&list->carry, &list->capcarry, (size_t)m, sizeof *list->carry)) {
-            return (size_t)-1;
-        }
-        memcpy(list->carry, p, (size_t)m * sizeof *list->carry);
+        memcpy(list->carry, buf, (size_t)m * sizeof *list->carry);
         list->ncarry = (size_t)m;
-        p += (size_t)m * sizeof *list->carry;
+        buf += (size_t)m * sizeof *list->carry;
     }
     sp->carried = 1;
-    return (size_t)(p - buf);
+    return 1;
 }
 
 void spheres_write_outer(spheres_t *sp, const pops_t *f)

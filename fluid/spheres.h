@@ -176,12 +176,15 @@ void spheres_write_outer(spheres_t *sp, const pops_t *p);
  * over ranks; collective). */
 void spheres_loads(spheres_t *sp);
 /* The pre-collision pairs the links hold (or, after a restore, carry) for
- * the next fill: their count over all spheres, and copy out (in sphere and
- * key order, each sphere's count first) / in, for a state. spheres_pairs_in
- * returns the bytes read, (size_t)-1 if size is too short or out of memory. */
+ * the next fill, for a state: the bytes they take, and copied out (in
+ * sphere and key order, each sphere's count first). spheres_pairs_size: the
+ * bytes of such a section of nspheres spheres at buf, (size_t)-1 if it does
+ * not fit in size; spheres_pairs_in reads a section so checked, 0 when out
+ * of memory. */
 size_t spheres_pairs_bytes(const spheres_t *sp);
 void spheres_pairs_out(const spheres_t *sp, unsigned char *buf);
-size_t spheres_pairs_in(spheres_t *sp, const unsigned char *buf, size_t size);
+size_t spheres_pairs_size(const unsigned char *buf, size_t size, int nspheres);
+int spheres_pairs_in(spheres_t *sp, const unsigned char *buf);
 /* Moves prescribed and fixed spheres by one step (dt = 1). */
 void spheres_advance_prescribed(spheres_t *sp, long step);
 /* Wraps a centre (global lattice coordinates) onto the periodic axes. */

@@ -52,6 +52,10 @@ static inline void spheres_cross(const double a[3], const double b[3], double c[
  * minus its centre (minimum image). */
 int spheres_nearest(const spheres_t *sp, const double x[3], double d_out[3]);
 
+/* The links of a list that keep a pre-collision pair: their count, and
+ * their records (key order) copied to out unless NULL (sphere_links.c). */
+size_t spheres_list_pairs(const link_list_t *list, unsigned char *out);
+
 /* Every sphere's links for the current flags (sphere_links.c), in parallel
  * over spheres. */
 status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, const log_t *log);

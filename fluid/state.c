@@ -109,25 +109,7 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
                        need);
     }
     /* the pairs: a count per sphere, then that many records, within the buffer */
-    const unsigned char *pairs = (const unsigned char *)buf + need;
-    size_t rest = size - need;
-    for (int k = 0; k < h.nspheres; k++) {
-        uint64_t m;
-        if (rest < sizeof m) {
-            rest = (size_t)-1;
-            break;
-        }
-        memcpy(&m, pairs, sizeof m);
-        pairs += sizeof m;
-        rest -= sizeof m;
-        if (m > rest / sizeof(spheres_carry_t)) {
-            rest = (size_t)-1;
-            break;
-        }
-        pairs += m * sizeof(spheres_carry_t);
-        rest -= m * sizeof(spheres_carry_t);
-    }
-    if (rest == (size_t)-1) {
+    if (spheres_pairs_size((const unsigned char *)buf + need, size - need, h.nspheres) == (size_t)-1) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid",
                        "state of %zu bytes ends inside the pre-collision pairs of its boundary links", size);
     }
@@ -157,7 +139,7 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
         memcpy(fl->spheres.solid, p, h.nsolid * sizeof(size_t));
         p += h.nsolid * sizeof(size_t);
     }
-    if (spheres_pairs_in(&fl->spheres, p, size - need) == (size_t)-1) {
+    if (!spheres_pairs_in(&fl->spheres, p)) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory restoring the pre-collision pairs of the links");
     }
     fl->spheres.nsolid = h.nsolid;

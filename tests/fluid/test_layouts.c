@@ -137,7 +137,8 @@ static void test_single_precision_close_to_double(void)
 }
 
 /* A state saved after an odd and after an even number of steps (the two
- * in-place states) continues bit-identically in a fresh component. */
+ * in-place states) continues bit-identically in a fresh component; the same
+ * state one byte short is refused. */
 static void test_in_place_state_restore(void)
 {
     for (int run = 0; run < 3; run++) {
@@ -151,6 +152,8 @@ static void test_in_place_state_restore(void)
         CU_ASSERT_FATAL(buf != NULL);
         CU_ASSERT_EQUAL(fluid_state_save(a, buf, n), STATUS_OK);
         test_run(a, 9);
+        /* cut short inside its last section (the links' pre-collision pairs): refused */
+        CU_ASSERT_EQUAL(fluid_state_restore(r, buf, n - 1), STATUS_ERROR);
         CU_ASSERT_EQUAL(fluid_state_restore(r, buf, n), STATUS_OK);
         test_run(r, 9);
         double *ma = malloc(sizeof(double) * 4 * NCELLS), *mr = malloc(sizeof(double) * 4 * NCELLS);
