@@ -787,22 +787,63 @@ static status_t trouble_finish(const fluid_t *fl, double key, double mach_limit)
 
 enum { DIAG_NV = 10 }; /* mass, momentum 3, kinetic, umax, peak 3, trouble key */
 
+/* Density and momentum of the nx cells of the row that starts at cell
+ * first, with the layout state and precision known at compile time: one
+ * pass per direction along the row's slots (consecutive in every state), so
+ * that the loop vectorises. The same sums, in the same order, as
+ * pops_moments cell by cell. */
+static inline __attribute__((always_inline)) void row_moments(const pops_t *pl, size_t first, int nx, double *rho,
+                                                              double *jx, double *jy, double *jz)
+{
+    for (int x = 0; x < nx; x++) {
+        rho[x] = jx[x] = jy[x] = jz[x] = 0.0;
+    }
+    for (int q = 0; q < LB_Q; q++) {
+        const size_t s0 = pops_post_slot(pl, q, first);
+        const double cx = lb_c[q][0], cy = lb_c[q][1], cz = lb_c[q][2], w = lb_w[q];
+        if (pl->h != NULL) {
+            const float *restrict h = pl->h + s0;
+            for (int x = 0; x < nx; x++) {
+                const double v = (double)h[x] + w;
+                rho[x] += v;
+                jx[x] += cx * v;
+                jy[x] += cy * v;
+                jz[x] += cz * v;
+            }
+        } else {
+            const double *restrict f = pl->f + s0;
+            for (int x = 0; x < nx; x++) {
+                const double v = f[x];
+                rho[x] += v;
+                jx[x] += cx * v;
+                jy[x] += cy * v;
+                jz[x] += cz * v;
+            }
+        }
+    }
+}
+
 /* The sums of one z plane, with the layout state and precision known at
- * compile time (one copy per combination below). */
+ * compile time (one copy per combination below); row: 4 n[0] doubles. */
 static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_t *fl, const pops_t *p0, int z,
-                                                                    xsum_t *xs, double *v, double umax2,
+                                                                    xsum_t *xs, double *v, double umax2, double *row,
                                                                     layout_state_t state, int single)
 {
     const grid_t *g = &fl->g;
     const pops_t pl = pops_fixed(p0, state, single);
+    const int nx = g->n[0];
+    double *rho = row, *jx = row + nx, *jy = row + 2 * nx, *jz = row + 3 * nx, uumax = 0.0;
     for (int y = 1; y <= g->n[1]; y++) {
-        for (int x = 1; x <= g->n[0]; x++) {
-            const size_t i = grid_index(g, x, y, z);
+        const size_t first = grid_index(g, 1, y, z);
+        row_moments(&pl, first, nx, rho, jx, jy, jz);
+        for (int x = 0; x < nx; x++) {
+            const size_t i = first + (size_t)x;
             if (fl->flags[i] != CELL_FLUID) {
                 continue;
             }
-            double r, u[3];
-            local_moments(fl, &pl, i, &r, u);
+            const double r = rho[x];
+            const double u[3] = {(jx[x] - 0.5 * fl->kp.force[0]) / r, (jy[x] - 0.5 * fl->kp.force[1]) / r,
+                                 (jz[x] - 0.5 * fl->kp.force[2]) / r};
             const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
             xsum_add(&xs[0], r);
             for (int a = 0; a < 3; a++) {
@@ -812,10 +853,16 @@ static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_
                 }
             }
             xsum_add(&xs[4], 0.5 * r * uu);
-            v[5] = fmax(v[5], sqrt(uu));
-            v[9] = fmax(v[9], trouble_key(fl, cell_trouble(r, u, umax2), i));
+            uumax = uu > uumax ? uu : uumax;
+            const int cause = cell_trouble(r, u, umax2);
+            if (cause != TROUBLE_NONE) {
+                v[9] = fmax(v[9], trouble_key(fl, cause, i));
+            }
         }
     }
+    /* the largest speed (NaN ignored, as fmax does): sqrt is monotonic, so the
+     * root of the largest square */
+    v[5] = fmax(v[5], sqrt(uumax));
 }
 
 status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass, double momentum[3], double *kinetic,
@@ -837,13 +884,32 @@ status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass,
                                             "out of memory for the plane sums of the totals (%zu bytes)",
                                             (size_t)nz * (NV * sizeof(double) + NS * sizeof(xsum_t))));
     }
-#pragma omp parallel for schedule(static)
-    for (int z = 1; z <= nz; z++) {
-        double *v = plane + (size_t)(z - 1) * NV;
-        xsum_t *xs = sums + (size_t)(z - 1) * NS;
-#define PLANE(state, single) diagnostics_plane(fl, &pf, z, xs, v, umax2, state, single)
-        POPS_SPECIALISE(&pf, PLANE);
+    int row_fail = 0;
+#pragma omp parallel reduction(| : row_fail)
+    {
+        double *row = malloc(4 * (size_t)g->n[0] * sizeof(double));
+        row_fail = row == NULL;
+#pragma omp for schedule(static)
+        for (int z = 1; z <= nz; z++) {
+            if (row == NULL) {
+                continue;
+            }
+            double *v = plane + (size_t)(z - 1) * NV;
+            xsum_t *xs = sums + (size_t)(z - 1) * NS;
+#define PLANE(state, single) diagnostics_plane(fl, &pf, z, xs, v, umax2, row, state, single)
+            POPS_SPECIALISE(&pf, PLANE);
 #undef PLANE
+        }
+        free(row);
+    }
+    if (row_fail) {
+        free(plane);
+        free(sums);
+        *mass = *kinetic = *umax = NAN;
+        momentum[0] = momentum[1] = momentum[2] = peak[0] = peak[1] = peak[2] = NAN;
+        return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
+                                            "out of memory for a row of the totals (%zu bytes)",
+                                            4 * (size_t)g->n[0] * sizeof(double)));
     }
     /* exact sums (common/exact_sum.h): the same bits for any number of
      * threads and ranks; maxima are exact anyway */
@@ -887,26 +953,65 @@ status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass,
     return trouble_finish(fl, m[7], mach_limit);
 }
 
+/* The worst trouble key of one z plane (fluid_check), with the layout state
+ * and precision known at compile time; row: 4 n[0] doubles. */
+static inline __attribute__((always_inline)) double check_plane(const fluid_t *fl, const pops_t *p0, int z,
+                                                                double umax2, double *row, layout_state_t state,
+                                                                int single)
+{
+    const grid_t *g = &fl->g;
+    const pops_t pl = pops_fixed(p0, state, single);
+    const int nx = g->n[0];
+    double *rho = row, *jx = row + nx, *jy = row + 2 * nx, *jz = row + 3 * nx, worst = 0.0;
+    for (int y = 1; y <= g->n[1]; y++) {
+        const size_t first = grid_index(g, 1, y, z);
+        row_moments(&pl, first, nx, rho, jx, jy, jz);
+        for (int x = 0; x < nx; x++) {
+            const size_t i = first + (size_t)x;
+            if (fl->flags[i] != CELL_FLUID) {
+                continue;
+            }
+            const double r = rho[x];
+            const double u[3] = {(jx[x] - 0.5 * fl->kp.force[0]) / r, (jy[x] - 0.5 * fl->kp.force[1]) / r,
+                                 (jz[x] - 0.5 * fl->kp.force[2]) / r};
+            const int cause = cell_trouble(r, u, umax2);
+            if (cause != TROUBLE_NONE) {
+                worst = fmax(worst, trouble_key(fl, cause, i));
+            }
+        }
+    }
+    return worst;
+}
+
 status_t fluid_check(fluid_t *fl, double mach_limit)
 {
     const grid_t *g = &fl->g;
-    const pops_t pf = fluid_pops(fl), *f = &pf;
+    const pops_t pf = fluid_pops(fl);
     const double umax2 = mach_limit * mach_limit * LB_CS2;
     double worst = 0.0;
-    const int ny = g->n[1], nz = g->n[2];
-#pragma omp parallel for collapse(2) schedule(static) reduction(max : worst)
-    for (int z = 1; z <= nz; z++) {
-        for (int y = 1; y <= ny; y++) {
-            for (int x = 1; x <= g->n[0]; x++) {
-                const size_t i = grid_index(g, x, y, z);
-                if (fl->flags[i] != CELL_FLUID) {
-                    continue;
-                }
-                double r, u[3];
-                local_moments(fl, f, i, &r, u);
-                worst = fmax(worst, trouble_key(fl, cell_trouble(r, u, umax2), i));
+    int row_fail = 0;
+    const int nz = g->n[2];
+#pragma omp parallel reduction(max : worst) reduction(| : row_fail)
+    {
+        double *row = malloc(4 * (size_t)g->n[0] * sizeof(double));
+        row_fail = row == NULL;
+#pragma omp for schedule(static)
+        for (int z = 1; z <= nz; z++) {
+            if (row == NULL) {
+                continue;
             }
+            double w = 0.0;
+#define PLANE(state, single) w = check_plane(fl, &pf, z, umax2, row, state, single)
+            POPS_SPECIALISE(&pf, PLANE);
+#undef PLANE
+            worst = fmax(worst, w);
         }
+        free(row);
+    }
+    if (row_fail) {
+        return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
+                                            "out of memory for a row of the check (%zu bytes)",
+                                            4 * (size_t)g->n[0] * sizeof(double)));
     }
     return trouble_finish(fl, worst, mach_limit);
 }
