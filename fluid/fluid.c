@@ -823,11 +823,12 @@ static inline __attribute__((always_inline)) void row_moments(const pops_t *pl, 
     }
 }
 
-/* The sums of one z plane, with the layout state and precision known at
+/* The sums of one z plane (totals), or only its worst trouble key in v[9]
+ * (fluid_check: xs unused), with the layout state and precision known at
  * compile time (one copy per combination below); row: 4 n[0] doubles. */
 static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_t *fl, const pops_t *p0, int z,
                                                                     xsum_t *xs, double *v, double umax2, double *row,
-                                                                    layout_state_t state, int single)
+                                                                    int totals, layout_state_t state, int single)
 {
     const grid_t *g = &fl->g;
     const pops_t pl = pops_fixed(p0, state, single);
@@ -844,16 +845,18 @@ static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_
             const double r = rho[x];
             const double u[3] = {(jx[x] - 0.5 * fl->kp.force[0]) / r, (jy[x] - 0.5 * fl->kp.force[1]) / r,
                                  (jz[x] - 0.5 * fl->kp.force[2]) / r};
-            const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-            xsum_add(&xs[0], r);
-            for (int a = 0; a < 3; a++) {
-                xsum_add(&xs[1 + a], r * u[a]);
-                if (fabs(u[a]) > fabs(v[6 + a])) {
-                    v[6 + a] = u[a];
+            if (totals) {
+                const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+                xsum_add(&xs[0], r);
+                for (int a = 0; a < 3; a++) {
+                    xsum_add(&xs[1 + a], r * u[a]);
+                    if (fabs(u[a]) > fabs(v[6 + a])) {
+                        v[6 + a] = u[a];
+                    }
                 }
+                xsum_add(&xs[4], 0.5 * r * uu);
+                uumax = uu > uumax ? uu : uumax;
             }
-            xsum_add(&xs[4], 0.5 * r * uu);
-            uumax = uu > uumax ? uu : uumax;
             const int cause = cell_trouble(r, u, umax2);
             if (cause != TROUBLE_NONE) {
                 v[9] = fmax(v[9], trouble_key(fl, cause, i));
@@ -865,25 +868,14 @@ static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_
     v[5] = fmax(v[5], sqrt(uumax));
 }
 
-status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass, double momentum[3], double *kinetic,
-                                   double *umax, double peak[3])
+/* Every z plane of the block in parallel (diagnostics_plane): into plane
+ * (n[2] x DIAG_NV, zeroed) and, with totals, sums (n[2] x 5). 0 when out
+ * of memory for a row. */
+static int scan_planes(const fluid_t *fl, double umax2, double *plane, xsum_t *sums, int totals)
 {
     const grid_t *g = &fl->g;
     const pops_t pf = fluid_pops(fl);
     const int nz = g->n[2];
-    const double umax2 = mach_limit * mach_limit * LB_CS2;
-    enum { NV = DIAG_NV, NS = 5 };
-    double *plane = calloc((size_t)nz * NV, sizeof(double));
-    xsum_t *sums = calloc((size_t)nz * NS, sizeof(xsum_t));
-    if (plane == NULL || sums == NULL) {
-        free(plane);
-        free(sums);
-        *mass = *kinetic = *umax = NAN;
-        momentum[0] = momentum[1] = momentum[2] = peak[0] = peak[1] = peak[2] = NAN;
-        return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
-                                            "out of memory for the plane sums of the totals (%zu bytes)",
-                                            (size_t)nz * (NV * sizeof(double) + NS * sizeof(xsum_t))));
-    }
     int row_fail = 0;
 #pragma omp parallel reduction(| : row_fail)
     {
@@ -894,22 +886,43 @@ status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass,
             if (row == NULL) {
                 continue;
             }
-            double *v = plane + (size_t)(z - 1) * NV;
-            xsum_t *xs = sums + (size_t)(z - 1) * NS;
-#define PLANE(state, single) diagnostics_plane(fl, &pf, z, xs, v, umax2, row, state, single)
+            double *v = plane + (size_t)(z - 1) * DIAG_NV;
+            xsum_t *xs = totals ? sums + (size_t)(z - 1) * 5 : NULL;
+            /* totals a compile-time constant in each copy */
+#define PLANE(state, single)                                                    \
+    do {                                                                        \
+        if (totals) {                                                           \
+            diagnostics_plane(fl, &pf, z, xs, v, umax2, row, 1, state, single); \
+        } else {                                                                \
+            diagnostics_plane(fl, &pf, z, xs, v, umax2, row, 0, state, single); \
+        }                                                                       \
+    } while (0)
             POPS_SPECIALISE(&pf, PLANE);
 #undef PLANE
         }
         free(row);
     }
-    if (row_fail) {
+    return !row_fail;
+}
+
+status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass, double momentum[3], double *kinetic,
+                                   double *umax, double peak[3])
+{
+    const grid_t *g = &fl->g;
+    const int nz = g->n[2];
+    const double umax2 = mach_limit * mach_limit * LB_CS2;
+    enum { NV = DIAG_NV, NS = 5 };
+    double *plane = calloc((size_t)nz * NV, sizeof(double));
+    xsum_t *sums = calloc((size_t)nz * NS, sizeof(xsum_t));
+    if (plane == NULL || sums == NULL || !scan_planes(fl, umax2, plane, sums, 1)) {
         free(plane);
         free(sums);
         *mass = *kinetic = *umax = NAN;
         momentum[0] = momentum[1] = momentum[2] = peak[0] = peak[1] = peak[2] = NAN;
         return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
-                                            "out of memory for a row of the totals (%zu bytes)",
-                                            4 * (size_t)g->n[0] * sizeof(double)));
+                                            "out of memory for the plane sums of the totals (%zu bytes)",
+                                            (size_t)nz * (NV * sizeof(double) + NS * sizeof(xsum_t)) +
+                                                4 * (size_t)g->n[0] * sizeof(double)));
     }
     /* exact sums (common/exact_sum.h): the same bits for any number of
      * threads and ranks; maxima are exact anyway */
@@ -953,66 +966,20 @@ status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass,
     return trouble_finish(fl, m[7], mach_limit);
 }
 
-/* The worst trouble key of one z plane (fluid_check), with the layout state
- * and precision known at compile time; row: 4 n[0] doubles. */
-static inline __attribute__((always_inline)) double check_plane(const fluid_t *fl, const pops_t *p0, int z,
-                                                                double umax2, double *row, layout_state_t state,
-                                                                int single)
-{
-    const grid_t *g = &fl->g;
-    const pops_t pl = pops_fixed(p0, state, single);
-    const int nx = g->n[0];
-    double *rho = row, *jx = row + nx, *jy = row + 2 * nx, *jz = row + 3 * nx, worst = 0.0;
-    for (int y = 1; y <= g->n[1]; y++) {
-        const size_t first = grid_index(g, 1, y, z);
-        row_moments(&pl, first, nx, rho, jx, jy, jz);
-        for (int x = 0; x < nx; x++) {
-            const size_t i = first + (size_t)x;
-            if (fl->flags[i] != CELL_FLUID) {
-                continue;
-            }
-            const double r = rho[x];
-            const double u[3] = {(jx[x] - 0.5 * fl->kp.force[0]) / r, (jy[x] - 0.5 * fl->kp.force[1]) / r,
-                                 (jz[x] - 0.5 * fl->kp.force[2]) / r};
-            const int cause = cell_trouble(r, u, umax2);
-            if (cause != TROUBLE_NONE) {
-                worst = fmax(worst, trouble_key(fl, cause, i));
-            }
-        }
-    }
-    return worst;
-}
-
 status_t fluid_check(fluid_t *fl, double mach_limit)
 {
-    const grid_t *g = &fl->g;
-    const pops_t pf = fluid_pops(fl);
-    const double umax2 = mach_limit * mach_limit * LB_CS2;
+    const int nz = fl->g.n[2];
+    double *plane = calloc((size_t)nz * DIAG_NV, sizeof(double));
+    if (plane == NULL || !scan_planes(fl, mach_limit * mach_limit * LB_CS2, plane, NULL, 0)) {
+        free(plane);
+        return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory for the check of the grid (%zu bytes)",
+                                            (size_t)nz * DIAG_NV * sizeof(double) + 4 * (size_t)fl->g.n[0] * sizeof(double)));
+    }
     double worst = 0.0;
-    int row_fail = 0;
-    const int nz = g->n[2];
-#pragma omp parallel reduction(max : worst) reduction(| : row_fail)
-    {
-        double *row = malloc(4 * (size_t)g->n[0] * sizeof(double));
-        row_fail = row == NULL;
-#pragma omp for schedule(static)
-        for (int z = 1; z <= nz; z++) {
-            if (row == NULL) {
-                continue;
-            }
-            double w = 0.0;
-#define PLANE(state, single) w = check_plane(fl, &pf, z, umax2, row, state, single)
-            POPS_SPECIALISE(&pf, PLANE);
-#undef PLANE
-            worst = fmax(worst, w);
-        }
-        free(row);
+    for (int z = 0; z < nz; z++) {
+        worst = fmax(worst, plane[(size_t)z * DIAG_NV + 9]);
     }
-    if (row_fail) {
-        return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
-                                            "out of memory for a row of the check (%zu bytes)",
-                                            4 * (size_t)g->n[0] * sizeof(double)));
-    }
+    free(plane);
     return trouble_finish(fl, worst, mach_limit);
 }
 
