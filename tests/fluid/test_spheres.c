@@ -650,7 +650,7 @@ void spheres_register_tests(int validate)
         CU_pSuite v = CU_add_suite("spheres-validate", NULL, NULL);
         CU_add_test(v, "periodic array r=8: Sangani-Acrivos within 0.2% at tau 0.6, 1.5", test_periodic_array_r8_taus);
         CU_add_test(v, "dilute periodic array D/L = 0.2 within 0.5%", test_dilute_array);
-        CU_add_test(v, "periodic array r=4 at 22 places, tau 0.6/1/1.5: worst 1%, mean 0.5% (issue 11, open)",
+        CU_add_test(v, "periodic array r=4 at 22 places, tau 0.6/1/1.5: worst 1%, mean 0.5%; r=8 at 6: worst 0.3% (issue 11)",
                     test_drag_any_position_acceptance);
     }
 }
