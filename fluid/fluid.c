@@ -545,14 +545,19 @@ size_t fluid_memory_bytes(const fluid_t *fl)
  * collision keeps the density and adds the force F to the momentum, so the
  * velocity it used is u = (sum c f~ - F/2) / rho (Guo et al. 2002). Needs no
  * boundary values, and so is exact next to walls and spheres. */
+static inline void post_velocity(const fluid_t *fl, double rho, const double j[3], double u[3])
+{
+    for (int a = 0; a < 3; a++) {
+        u[a] = (j[a] - 0.5 * fl->kp.force[a]) / rho;
+    }
+}
+
 static inline __attribute__((always_inline)) void local_moments(const fluid_t *fl, const pops_t *f, size_t i,
                                                                double *rho, double u[3])
 {
     double j[3];
     *rho = pops_moments(f, i, j);
-    for (int a = 0; a < 3; a++) {
-        u[a] = (j[a] - 0.5 * fl->kp.force[a]) / *rho;
-    }
+    post_velocity(fl, *rho, j, u);
 }
 
 void fluid_moments_lattice(fluid_t *fl, double *rho, double *u)
@@ -842,9 +847,9 @@ static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_
             if (fl->flags[i] != CELL_FLUID) {
                 continue;
             }
-            const double r = rho[x];
-            const double u[3] = {(jx[x] - 0.5 * fl->kp.force[0]) / r, (jy[x] - 0.5 * fl->kp.force[1]) / r,
-                                 (jz[x] - 0.5 * fl->kp.force[2]) / r};
+            const double r = rho[x], j[3] = {jx[x], jy[x], jz[x]};
+            double u[3];
+            post_velocity(fl, r, j, u);
             if (totals) {
                 const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
                 xsum_add(&xs[0], r);
@@ -972,8 +977,10 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
     double *plane = calloc((size_t)nz * DIAG_NV, sizeof(double));
     if (plane == NULL || !scan_planes(fl, mach_limit * mach_limit * LB_CS2, plane, NULL, 0)) {
         free(plane);
-        return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory for the check of the grid (%zu bytes)",
-                                            (size_t)nz * DIAG_NV * sizeof(double) + 4 * (size_t)fl->g.n[0] * sizeof(double)));
+        return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
+                                            "out of memory for the check of the grid (%zu bytes)",
+                                            (size_t)nz * DIAG_NV * sizeof(double) +
+                                                4 * (size_t)fl->g.n[0] * sizeof(double)));
     }
     double worst = 0.0;
     for (int z = 0; z < nz; z++) {
