@@ -32,7 +32,15 @@ typedef struct {
 } face_t;
 
 typedef enum { COLLISION_BGK, COLLISION_TRT } collision_t;
-typedef enum { BOUNDARY_BOUNCE_BACK, BOUNDARY_YU, BOUNDARY_CLI, BOUNDARY_QUADRATIC, BOUNDARY_MULTIREFLECTION } boundary_scheme_t;
+typedef enum {
+    BOUNDARY_BOUNCE_BACK,
+    BOUNDARY_YU,
+    BOUNDARY_CLI,
+    BOUNDARY_QUADRATIC,
+    BOUNDARY_MULTIREFLECTION,
+    BOUNDARY_CLI_CORRECTED,
+    BOUNDARY_LOCAL
+} boundary_scheme_t;
 typedef enum { REFILL_EQUILIBRIUM, REFILL_EXTRAPOLATION } refill_t;
 typedef enum { FORCE_MOMENTUM_EXCHANGE, FORCE_GALILEAN } force_method_t;
 /* Population layout (fluid/layout.h): one array updated in place (the AA

@@ -3,6 +3,8 @@
  * run until the force changes by less than 1e-10 per 100 steps). */
 #include "drag_report.h"
 
+#include "../../fluid/boundary.h"
+
 #include "sphere_harness.h"
 #include "test_util.h"
 
@@ -15,7 +17,7 @@
 #define DRAG_SEED 11ULL /* issue 11: one fixed set of positions for every run */
 #define DRAG_MAX_POS 256
 
-static const char *scheme_names[] = {"bounce_back", "yu", "cli", "quadratic", "multireflection"};
+#define scheme_names boundary_scheme_names
 
 static drag_stats_t stats_of(const double *e, const double *m, int n)
 {
@@ -91,8 +93,8 @@ int drag_plan_parse(drag_plan_t *plan, int argc, char **argv)
 {
     static const double radii[] = {3, 4, 5, 6, 8}, taus[] = {0.6, 1.0, 1.5};
     memset(plan, 0, sizeof *plan);
-    plan->nschemes = 5;
-    for (int i = 0; i < 5; i++) {
+    plan->nschemes = BOUNDARY_NSCHEMES;
+    for (int i = 0; i < BOUNDARY_NSCHEMES; i++) {
         plan->schemes[i] = (boundary_scheme_t)i;
     }
     plan->nradii = 5;
@@ -135,7 +137,7 @@ int drag_plan_parse(drag_plan_t *plan, int argc, char **argv)
             plan->nschemes = 0;
             for (char *tok = strtok(buf, ","); tok != NULL && plan->nschemes < DRAG_MAX; tok = strtok(NULL, ",")) {
                 int found = -1;
-                for (int k = 0; k < 5; k++) {
+                for (int k = 0; k < BOUNDARY_NSCHEMES; k++) {
                     if (!strcmp(tok, scheme_names[k])) {
                         found = k;
                     }

@@ -4,6 +4,7 @@
 
 void fluid_register_tests(int validate);
 void lattice_register_tests(void);
+void boundary_register_tests(void);
 void kernel_register_tests(void);
 void layouts_register_tests(void);
 void flows_register_tests(int validate);

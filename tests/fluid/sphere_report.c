@@ -17,6 +17,7 @@
  * (default build/report) for tools/plot_approach.py. Output: plain columns,
  * one line per combination. */
 #include "../../common/scene.h"
+#include "../../fluid/boundary.h"
 #include "../../fluid/fluid.h"
 
 #include "approach_harness.h"
@@ -119,7 +120,7 @@ int main(int argc, char **argv)
             return 0;
         }
     }
-    static const char *sname[] = {"bounce_back", "yu", "cli", "quadratic", "multireflection"};
+    const char *const *sname = boundary_scheme_names;
     static const char *cname[] = {"bgk", "trt"};
     const double *radii = rad;
     if (do_drag || do_rotation) {
@@ -144,7 +145,7 @@ int main(int argc, char **argv)
     printf("%-6s %-16s %-9s %-13s %-5s %10s %14s %9s\n", "radius", "scheme", "force", "refill", "coll", "fluct",
            "drift/step", "seconds");
     for (int ri = 0; ri < nr; ri++) {
-        for (int sc = 0; sc < 5; sc++) {
+        for (int sc = 0; sc < BOUNDARY_NSCHEMES; sc++) {
             for (int fm = 0; fm < 2; fm++) {
                 for (int rf = 0; rf < 2; rf++) {
                     for (int op = 0; op < 2; op++) {

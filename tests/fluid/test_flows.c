@@ -503,6 +503,7 @@ void flows_register_tests(int validate)
 void fluid_register_tests(int validate)
 {
     lattice_register_tests();
+    boundary_register_tests();
     kernel_register_tests();
     layouts_register_tests();
     flows_register_tests(validate);
