@@ -32,8 +32,6 @@ static const cyaml_strval_t BOUNDARY_NAMES[] = {
     {"cli", BOUNDARY_CLI},
     {"quadratic", BOUNDARY_QUADRATIC},
     {"multireflection", BOUNDARY_MULTIREFLECTION},
-    {"cli_corrected", BOUNDARY_CLI_CORRECTED},
-    {"local", BOUNDARY_LOCAL},
 };
 static const cyaml_strval_t REFILL_NAMES[] = {{"equilibrium", REFILL_EQUILIBRIUM},
                                               {"extrapolation", REFILL_EXTRAPOLATION}};

@@ -1,26 +1,15 @@
 /* boundary.c — coefficients of the curved-wall schemes (boundary.h). */
 #include "boundary.h"
 
-const char *const boundary_scheme_names[BOUNDARY_NSCHEMES] = {"bounce_back", "yu", "cli", "quadratic", "multireflection", "cli_corrected", "local"};
-
-int boundary_uses_pre(boundary_scheme_t scheme)
-{
-    return scheme == BOUNDARY_MULTIREFLECTION || scheme == BOUNDARY_CLI_CORRECTED || scheme == BOUNDARY_LOCAL;
-}
-
-/* The n^- factor of the schemes exact for plane Poiseuille flows (boundary.h):
- * (omega- - 2) + 3 delta^2 omega- omega+ / (2 - omega+). */
-static double poiseuille_corr(double d, double omega_plus, double omega_minus)
-{
-    return (omega_minus - 2.0) + 3.0 * d * d * omega_minus * omega_plus / (2.0 - omega_plus);
-}
+const char *const boundary_scheme_names[BOUNDARY_NSCHEMES] = {"bounce_back", "yu", "cli", "quadratic",
+                                                               "multireflection"};
 
 boundary_scheme_t boundary_coefficients(boundary_scheme_t scheme, double d, int have_ff, int have_fff,
-                                        double omega_plus, double omega_minus, boundary_coef_t *c)
+                                        double omega_minus, boundary_coef_t *c)
 {
     double *a = c->a, *b = c->b;
     a[0] = a[1] = a[2] = b[0] = b[1] = 0.0;
-    c->corr = c->corr_plus = 0.0;
+    c->corr = 0.0;
     if (scheme == BOUNDARY_MULTIREFLECTION) {
         if (have_ff && have_fff) {
             const double cc = (1.0 + d) * (1.0 + d);
@@ -40,23 +29,6 @@ boundary_scheme_t boundary_coefficients(boundary_scheme_t scheme, double d, int 
             return BOUNDARY_MULTIREFLECTION;
         }
         scheme = BOUNDARY_BOUNCE_BACK;
-    }
-    if (scheme == BOUNDARY_CLI_CORRECTED) {
-        if (have_ff) {
-            const double k0 = (1.0 - 2.0 * d) / (1.0 + 2.0 * d);
-            a[0] = 1.0;
-            a[1] = k0;
-            b[0] = -k0;
-            c->corr = 2.0 / (1.0 + 2.0 * d) * poiseuille_corr(d, omega_plus, omega_minus);
-            return BOUNDARY_CLI_CORRECTED;
-        }
-        scheme = BOUNDARY_LOCAL;
-    }
-    if (scheme == BOUNDARY_LOCAL) {
-        a[0] = 1.0;
-        c->corr = poiseuille_corr(d, omega_plus, omega_minus);
-        c->corr_plus = omega_plus * (1.0 - 2.0 * d);
-        return BOUNDARY_LOCAL;
     }
     if (scheme == BOUNDARY_QUADRATIC) {
         if (d < 0.5 && have_ff && have_fff) {

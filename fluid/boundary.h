@@ -33,49 +33,36 @@
  *                depend on delta); it is used only next to other solids.
  *                With only x_f - c_q fluid: MYLI (Yu's coefficients plus the
  *                correction -alpha w-/2 n_q^-, alpha = 2/(1+delta), Eq. 5.5).
- *   cli_corrected, local  two schemes derived here (issue 11) from the steady TRT
- *                solution along a link (populations polynomial in the position,
- *                e^+ linear, e^- quadratic, forcing as in spheres.c), closed with the
- *                momentum balance of a plane channel, e^-'' = 3 (e^+' - S^-)/Lambda+ along the link:
- *                they are exact for plane Poiseuille flows, forced or pressure driven,
- *                at any delta and Lambda, but not for every parabolic field (MR1 is;
- *                it is the only member of its five-population family that is). With
- *                m = (omega- - 2) + 3 delta^2 omega- omega+ / (2 - omega+):
- *                cli_corrected: CLI's a0, a1, b0 plus (2/(1+2 delta)) m n_q^-;
- *                local: a0 = 1 alone (x_f only) plus m n_q^- + omega+ (1 - 2 delta) n_q^+,
- *                n^+ the symmetric non-equilibrium part of x_f's pre-collision pair.
- *                Their coefficients stay bounded as delta -> 0 (no branch for small
- *                delta is needed). local falls back to nothing: a link without its
- *                pre-collision pair is bounce-back for that step.
+ * MR1 is the only closure of this five-population form with an n^- correction
+ * that is exact for every parabolic flow (with Guo forcing; tests/fluid/
+ * test_boundary.c checks it on the exact steady TRT solution along a link).
+ * Closures exact only for plane channel flows (closed with the channel's
+ * momentum balance, a 1/Lambda+ term) were derived and measured for issue 11
+ * and not kept: unstable at tau 0.6, and 2% low on a radius-4 sphere
+ * (README "Drag at any position in the cell").
  * Where a scheme needs a fluid node that is missing (x_f - c_q or
  * x_f - 2 c_q solid or outside), the next simpler scheme is used:
  * quadratic -> cli -> bounce_back, multireflection -> MYLI -> bounce_back,
- * cli_corrected -> local, yu -> bounce_back. */
+ * yu -> bounce_back. */
 #ifndef FLUID_BOUNDARY_H
 #define FLUID_BOUNDARY_H
 
 #include "../common/scene.h"
 
 /* The schemes, in the order of boundary_scheme_t, by their scene names. */
-#define BOUNDARY_NSCHEMES 7
+#define BOUNDARY_NSCHEMES 5
 extern const char *const boundary_scheme_names[BOUNDARY_NSCHEMES];
 
 /* The coefficients of one link. */
 typedef struct {
     double a[3], b[2];
-    double corr;      /* factor of n_q^- of x_f's pre-collision populations (against j - F) */
-    double corr_plus; /* factor of n_q^+ of the same */
+    double corr; /* factor of n_q^- of x_f's pre-collision populations (against j - F) */
 } boundary_coef_t;
 
-/* Schemes that add a multiple of x_f's pre-collision non-equilibrium: their
- * links keep the pre-collision pair of x_f from fill to fill. */
-int boundary_uses_pre(boundary_scheme_t scheme);
-
 /* The coefficients of a link at distance delta (in units of the link) from
- * the wall; have_ff / have_fff: x_f - c_q / x_f - 2 c_q are fluid; omega_plus
- * and omega_minus the even and odd relaxation rates. Returns the scheme
- * actually used. */
+ * the wall; have_ff / have_fff: x_f - c_q / x_f - 2 c_q are fluid;
+ * omega_minus the odd relaxation rate. Returns the scheme actually used. */
 boundary_scheme_t boundary_coefficients(boundary_scheme_t scheme, double delta, int have_ff, int have_fff,
-                                        double omega_plus, double omega_minus, boundary_coef_t *c);
+                                        double omega_minus, boundary_coef_t *c);
 
 #endif

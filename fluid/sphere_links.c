@@ -298,8 +298,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
                     const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
-                    boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_plus, sp->omega_minus,
-                                          &l->co);
+                    boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, &l->co);
                     for (int a = 0; a < 3; a++) {
                         l->rw[a] = dk[a] + delta * lb_c[q][a];
                     }

@@ -147,7 +147,6 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     sp->refill = s->fluid.refill;
     sp->force = s->fluid.force_method;
     sp->first = 1;
-    sp->omega_plus = u->omega_plus;
     sp->omega_minus = u->omega_minus;
     for (int a = 0; a < 3; a++) {
         sp->body_force[a] = u->force_lat[a];
@@ -527,17 +526,6 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     return st;
 }
 
-/* n_q^- of x_f's kept pre-collision pair, against the pre-collision momentum
- * j - F (j the post-collision momentum of x_f) */
-static inline double pre_minus(const sphere_link_t *l, int q, const double j[3], const double F[3])
-{
-    double cu0 = 0.0;
-    for (int a = 0; a < 3; a++) {
-        cu0 += lb_c[q][a] * (j[a] - F[a]);
-    }
-    return 0.5 * (l->pre[0] - l->pre[1]) - 3.0 * lb_w[q] * cu0;
-}
-
 static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0,
                                                              const link_list_t *list, int galilean, double inv_decay,
                                                              spheres_part_t part, layout_state_t state, int single);
@@ -682,7 +670,6 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
     /* the recovery of n^- from the post-collision populations (below) holds
      * away from omega_minus = 1 */
     const int use_decay = fabs(1.0 - sp->omega_minus) >= SPHERES_MR_DECAY_MIN;
-    const int keep_pre = boundary_uses_pre(sp->scheme);
     for (size_t n = 0; n < list->n; n++) {
         sphere_link_t *l = &list->l[n];
         const int q = l->q, o = lb_opposite(q);
@@ -715,35 +702,21 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
             uw[a] = p->v[a] + wr[a];
         }
         const double cu = lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2];
-        const boundary_coef_t *co = &l->co;
-        const double A = co->a[0] + co->a[1] + co->a[2];
+        const double A = l->co.a[0] + l->co.a[1] + l->co.a[2];
         const double f_old = pops_post(f, q, l->xf);
-        double f_new = co->a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
-        const int linear = co->a[1] != 0.0 || co->b[0] != 0.0 || co->b[1] != 0.0;
-        const double f_ff = (linear || keep_pre) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
+        double f_new = l->co.a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
+        const int linear = l->co.a[1] != 0.0 || l->co.b[0] != 0.0 || l->co.b[1] != 0.0;
+        const double f_ff = (linear || l->co.corr != 0.0) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
         if (linear) {
-            f_new += co->a[1] * f_ff + co->b[0] * pops_post(f, o, l->xf);
+            f_new += l->co.a[1] * f_ff + l->co.b[0] * pops_post(f, o, l->xf);
         }
-        if (co->a[2] != 0.0) {
-            f_new += co->a[2] * spheres_post(sp, f, q, l->xfff);
+        if (l->co.a[2] != 0.0) {
+            f_new += l->co.a[2] * spheres_post(sp, f, q, l->xfff);
         }
-        if (co->b[1] != 0.0) {
-            f_new += co->b[1] * spheres_post(sp, f, o, l->xff);
+        if (l->co.b[1] != 0.0) {
+            f_new += l->co.b[1] * spheres_post(sp, f, o, l->xff);
         }
-        if (co->corr_plus != 0.0) {
-            /* n^+ needs the pre-collision pair itself: at omega_plus = 1 the
-             * collision forgets it, so a link without its kept pair (new this
-             * step) goes without either correction for the step */
-            if (!l->fresh && l->has_pre) {
-                double u[3];
-                for (int a = 0; a < 3; a++) {
-                    u[a] = (j[a] - 0.5 * sp->body_force[a]) / rho;
-                }
-                const double np = 0.5 * (l->pre[0] + l->pre[1]) -
-                                  0.5 * (lb_feq(q, rho, u[0], u[1], u[2]) + lb_feq(o, rho, u[0], u[1], u[2]));
-                f_new += co->corr_plus * np + co->corr * pre_minus(l, q, j, sp->body_force);
-            }
-        } else if (co->corr != 0.0 && !l->fresh && (l->has_pre || use_decay)) {
+        if (l->co.corr != 0.0 && !l->fresh && (l->has_pre || use_decay)) {
             /* antisymmetric non-equilibrium of the pre-collision populations at x_f:
              * f_q came from x_f - c_q, f_qbar from the solid side, the very slot of this link.
              * It is taken against the pre-collision momentum j - F (Guo's collision adds
@@ -753,14 +726,19 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
              * round-off for every delta, tau and Lambda (checked with a 1D channel). */
             double nm;
             if (l->has_pre) {
-                nm = pre_minus(l, q, j, sp->body_force); /* the pair the last fill kept */
+                /* the pair the last fill kept */
+                double cu0 = 0.0;
+                for (int a = 0; a < 3; a++) {
+                    cu0 += lb_c[q][a] * (j[a] - sp->body_force[a]);
+                }
+                nm = 0.5 * (l->pre[0] - l->pre[1]) - 3.0 * lb_w[q] * cu0;
             } else {
                 const double cj = lb_c[q][0] * j[0] + lb_c[q][1] * j[1] + lb_c[q][2] * j[2];
                 nm = (0.5 * (f_old - pops_post(f, o, l->xf)) - 3.0 * lb_w[q] * cj) * inv_decay;
             }
-            f_new += co->corr * nm;
+            f_new += l->co.corr * nm;
         }
-        if (keep_pre) {
+        if (l->co.corr != 0.0) {
             /* the pre-collision pair of x_f at the next fill: f~_q(x_f - c_q)
              * streams to x_f, f_new is what x_f receives from the wall */
             l->pre[0] = f_ff;

@@ -82,16 +82,16 @@ typedef struct {
 typedef struct {
     size_t xf, xff, xfff; /* interior cells along -c_q (periodic wrap applied) */
     boundary_coef_t co;   /* f_new = sum a_k f~_q(x_f - k c_q) + sum b_k f~_qbar(x_f - k c_q) + moving term
-                           * + corr n_q^-(x_f) + corr_plus n_q^+(x_f), pre-collision (boundary.h) */
+                           * + corr n_q^-(x_f), pre-collision (boundary.h) */
     double rw[3];         /* wall point minus sphere centre */
     int q, sphere;
-    int fresh;            /* x_f was uncovered this step: no correction by x_f's non-equilibrium */
+    int fresh;            /* x_f was uncovered this step: no multireflection correction */
     int film;             /* the film partner whose surface lies within the lubrication cut-off of the
                            * wall point: a sphere m >= 0, a domain face -2 - face; -1 none (spheres_fill) */
     int outer;            /* x_f lies in an outer row of the block: y or z at its faces (spheres_fill) */
     double fnew;          /* outer: the value to write, held back (SPHERES_HOLD_OUTER) */
     double delta;
-    /* schemes that use it (boundary_uses_pre): the pre-collision pair (f_q, f_qbar) of x_f for the
+    /* multireflection: the pre-collision pair (f_q, f_qbar) of x_f for the
      * next fill, which the fill keeps as it goes: f_q is the post-collision
      * f~_q(x_f - c_q) it reads (it streams to x_f), f_qbar the value it
      * writes. In place the collision may have forgotten them (omega_minus
@@ -147,7 +147,7 @@ typedef struct spheres_s {
     int first;
     int stale;            /* the links do not match the flags (a restored state): map anew */
     int carried;          /* the lists' carry holds the pairs of a restored state (state.c) */
-    double omega_plus, omega_minus;
+    double omega_minus;
     double film_cutoff;   /* cells: the lubrication cut-off of the film zone, 0 without a film (spheres_fill) */
     int film_face[6];     /* 1: a face that carries a film (no-slip, moving, free-slip walls) */
     double body_force[3]; /* lattice: the equilibrium velocity is (j~ - F/2)/rho */

@@ -48,7 +48,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = os.path.join(ROOT, "build")
 COUPLER = os.path.join(BUILD, "coupler")
-SCHEMES = ["bounce_back", "yu", "cli", "quadratic", "multireflection", "cli_corrected", "local"]
+SCHEMES = ["bounce_back", "yu", "cli", "quadratic", "multireflection"]
 ONE_THREAD = dict(os.environ, OMP_NUM_THREADS="1")
 
 
