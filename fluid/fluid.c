@@ -75,7 +75,7 @@ static void init_uniform(fluid_t *fl, double rho, const double u[3])
  * and no start-up transient. Velocity gradients by central differences over
  * one cell, exact for the quadratic plane-channel profile. The momentum
  * is that after a collision with Guo's body force, rho u + F/2. */
-static void init_profile(fluid_t *fl, const scene_t *scene)
+static int init_profile(fluid_t *fl, const scene_t *scene)
 {
     const grid_t *g = &fl->g;
     const double dx = scene->fluid.dx, uv = units_velocity(&fl->units), tau = scene->fluid.tau;
@@ -83,43 +83,64 @@ static void init_profile(fluid_t *fl, const scene_t *scene)
     for (int k = 0; k < fluid_arrays(fl); k++) {
         pops_init(&arrays[k], g, fl->f[k], fl->single, fl->layout);
     }
+    /* the profile varies along the channel axis n only (initial_profile.h):
+     * the values of each plane across it are computed once (the other
+     * coordinates of pos change nothing, the differences along them are 0) */
+    const int n = scene->fluid.channel_axis, len = n >= 0 ? g->s[n] : 1;
+    double *vals = malloc((size_t)len * LB_Q * sizeof *vals);
+    if (vals == NULL) {
+        return 0;
+    }
+#pragma omp parallel for schedule(static)
+    for (int t = 0; t < len; t++) {
+        const int *o = fl->d.lo; /* global position of the block's cells */
+        int X[3] = {0, 0, 0};
+        if (n >= 0) {
+            X[n] = t;
+        }
+        const double pos[3] = {(X[0] + o[0] - 0.5) * dx, (X[1] + o[1] - 0.5) * dx, (X[2] + o[2] - 0.5) * dx};
+        double u[3], grad[3][3];
+        scene_initial_velocity(scene, pos, u);
+        for (int a = 0; a < 3; a++) {
+            double p1[3] = {pos[0], pos[1], pos[2]}, p0[3] = {pos[0], pos[1], pos[2]}, u1[3], u0[3];
+            p1[a] += 0.5 * dx;
+            p0[a] -= 0.5 * dx;
+            scene_initial_velocity(scene, p1, u1);
+            scene_initial_velocity(scene, p0, u0);
+            for (int b = 0; b < 3; b++) {
+                grad[a][b] = (u1[b] - u0[b]) / uv; /* lattice units per cell */
+            }
+        }
+        /* post-collision momentum with Guo forcing: rho u + F/2 */
+        const double *F = fl->units.force_lat;
+        const double ul[3] = {u[0] / uv + 0.5 * F[0], u[1] / uv + 0.5 * F[1], u[2] / uv + 0.5 * F[2]};
+        for (int q = 0; q < LB_Q; q++) {
+            double qs = 0.0;
+            for (int a = 0; a < 3; a++) {
+                for (int b = 0; b < 3; b++) {
+                    qs += (lb_c[q][a] * lb_c[q][b] - (a == b ? 1.0 / 3.0 : 0.0)) * grad[a][b];
+                }
+            }
+            vals[(size_t)t * LB_Q + (size_t)q] = lb_feq(q, 1.0, ul[0], ul[1], ul[2]) - 3.0 * (tau - 1.0) * lb_w[q] * qs;
+        }
+    }
 #pragma omp parallel for schedule(static)
     for (int z = 0; z < g->s[2]; z++) {
         for (int y = 0; y < g->s[1]; y++) {
             for (int x = 0; x < g->s[0]; x++) {
-                const int *o = fl->d.lo; /* global position of the block's cells */
-                const double pos[3] = {(x + o[0] - 0.5) * dx, (y + o[1] - 0.5) * dx, (z + o[2] - 0.5) * dx};
-                double u[3], grad[3][3];
-                scene_initial_velocity(scene, pos, u);
-                for (int a = 0; a < 3; a++) {
-                    double p1[3] = {pos[0], pos[1], pos[2]}, p0[3] = {pos[0], pos[1], pos[2]}, u1[3], u0[3];
-                    p1[a] += 0.5 * dx;
-                    p0[a] -= 0.5 * dx;
-                    scene_initial_velocity(scene, p1, u1);
-                    scene_initial_velocity(scene, p0, u0);
-                    for (int b = 0; b < 3; b++) {
-                        grad[a][b] = (u1[b] - u0[b]) / uv; /* lattice units per cell */
-                    }
-                }
-                /* post-collision momentum with Guo forcing: rho u + F/2 */
-                const double *F = fl->units.force_lat;
-                const double ul[3] = {u[0] / uv + 0.5 * F[0], u[1] / uv + 0.5 * F[1], u[2] / uv + 0.5 * F[2]};
+                const int X[3] = {x, y, z};
+                const double *v = vals + (size_t)(n >= 0 ? X[n] : 0) * LB_Q;
                 const size_t i = grid_index(g, x, y, z);
                 for (int q = 0; q < LB_Q; q++) {
-                    double qs = 0.0;
-                    for (int a = 0; a < 3; a++) {
-                        for (int b = 0; b < 3; b++) {
-                            qs += (lb_c[q][a] * lb_c[q][b] - (a == b ? 1.0 / 3.0 : 0.0)) * grad[a][b];
-                        }
-                    }
-                    const double v = lb_feq(q, 1.0, ul[0], ul[1], ul[2]) - 3.0 * (tau - 1.0) * lb_w[q] * qs;
                     for (int k = 0; k < fluid_arrays(fl); k++) {
-                        pops_write(&arrays[k], q, pops_post_slot(&arrays[k], q, i), v);
+                        pops_write(&arrays[k], q, pops_post_slot(&arrays[k], q, i), v[q]);
                     }
                 }
             }
         }
     }
+    free(vals);
+    return 1;
 }
 
 status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
@@ -187,8 +208,9 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
                           scene->fluid.initial_velocity[2] / uv};
     if (scene->fluid.initial_profile == INITIAL_UNIFORM) {
         init_uniform(fl, 1.0, u0);
-    } else {
-        init_profile(fl, scene);
+    } else if (!init_profile(fl, scene)) {
+        fluid_free(fl);
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the initial profile");
     }
     st = walls_build(&fl->walls, &fl->g, scene, &fl->units, &fl->d, log);
     fl->walls.flags = fl->flags;
