@@ -255,7 +255,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
             }
         }
     }
-    w->pre = malloc((w->nlinks > 0 ? w->nlinks : 1) * sizeof *w->pre);
+    w->pre = calloc(w->nlinks > 0 ? w->nlinks : 1, sizeof *w->pre);
     if (w->pre == NULL || !partition(w, g)) {
         walls_free(w);
         return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the moments of %zu wall links", w->nlinks);
@@ -455,6 +455,10 @@ void walls_links_prepare(const walls_t *w, const pops_t *p)
                                         (lb_c[l->q][0] * uk_last[0] + lb_c[l->q][1] * uk_last[1] +
                                          lb_c[l->q][2] * uk_last[2])
                                   : 0.0;
+        } else if (l->kind == LINK_BOUNCE) {
+            /* a resting wall where the domain is too thin for the slip term
+             * (cell2 == cell): plain bounce-back; walls_links still adds both */
+            w->pre[i].v[0] = w->pre[i].v[1] = 0.0;
         } else if (l->kind == LINK_ANTI) {
             double r1, r2, u1[3], u2[3];
             moments(p, l->cell, &r1, u1);
