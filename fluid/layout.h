@@ -115,6 +115,18 @@ static inline void pops_copy(const pops_t *p, size_t dst, size_t src)
 
 static inline double pops_post(const pops_t *p, int q, size_t x) { return pops_read(p, q, pops_post_slot(p, q, x)); }
 
+/* Asks for the cache line of a slot ahead of its use (write: to store to
+ * it), where the hardware prefetcher cannot guess the address. */
+static inline void pops_prefetch(const pops_t *p, size_t slot, int write)
+{
+    const void *a = p->h != NULL ? (const void *)(p->h + slot) : (const void *)(p->f + slot);
+    if (write) {
+        __builtin_prefetch(a, 1);
+    } else {
+        __builtin_prefetch(a, 0);
+    }
+}
+
 /* Runs BODY(state, single) with the layout state and the precision of p as
  * compile-time constants: one copy of BODY per combination, so that the
  * maps above compile to straight arithmetic in a hot loop. */

@@ -656,17 +656,6 @@ void spheres_loads(spheres_t *sp)
     }
 }
 
-/* Asks for the cache line of a population slot (write: for a store). */
-static inline void fill_prefetch(const pops_t *f, size_t slot, int write)
-{
-    const void *a = f->h != NULL ? (const void *)(f->h + slot) : (const void *)(f->f + slot);
-    if (write) {
-        __builtin_prefetch(a, 1);
-    } else {
-        __builtin_prefetch(a, 0);
-    }
-}
-
 static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0,
                                                              const link_list_t *list, int galilean, double inv_decay,
                                                              spheres_part_t part, layout_state_t state, int single)
@@ -700,7 +689,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         if (n + FILL_AHEAD < list->n && list->l[n + FILL_AHEAD].xf != list->l[n + FILL_AHEAD - 1].xf) {
             const size_t ahead = list->l[n + FILL_AHEAD].xf;
             for (int qq = 0; qq < LB_Q; qq++) {
-                fill_prefetch(f, pops_post_slot(f, qq, ahead), 0);
+                pops_prefetch(f, pops_post_slot(f, qq, ahead), 0);
             }
         }
         /* and the link's own scattered values (x_f - c_q, x_f - 2 c_q and the
@@ -709,15 +698,15 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         if (n + LINK_AHEAD < list->n) {
             const sphere_link_t *m = &list->l[n + LINK_AHEAD];
             const int mo = lb_opposite(m->q);
-            fill_prefetch(f, pops_in_slot(f, mo, m->xf), 1);
+            pops_prefetch(f, pops_in_slot(f, mo, m->xf), 1);
             if (m->xff != m->xf && m->xff < SPHERE_EXT) {
-                fill_prefetch(f, pops_post_slot(f, m->q, m->xff), 0);
+                pops_prefetch(f, pops_post_slot(f, m->q, m->xff), 0);
                 if (m->co.b[1] != 0.0) {
-                    fill_prefetch(f, pops_post_slot(f, mo, m->xff), 0);
+                    pops_prefetch(f, pops_post_slot(f, mo, m->xff), 0);
                 }
             }
             if (m->co.a[2] != 0.0 && m->xfff < SPHERE_EXT) {
-                fill_prefetch(f, pops_post_slot(f, m->q, m->xfff), 0);
+                pops_prefetch(f, pops_post_slot(f, m->q, m->xfff), 0);
             }
         }
         double wr[3], uw[3];

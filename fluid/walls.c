@@ -298,6 +298,8 @@ static void moments(const pops_t *p, size_t cell, double *rho, double u[3])
  *                  (in both orders: the axes before a in x, y, z).
  * Links across a periodic and a non-periodic face belong to the wall (walls
  * list, filled afterwards), which overwrites what this copy wrote there. */
+enum { PERIODIC_AHEAD = 8 };
+
 static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[3], const int hi[3])
 {
     const int push = p->state == LAYOUT_PUSHED, n = g->n[a];
@@ -317,6 +319,17 @@ static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[
                 const size_t gi = grid_index(g, X[0], X[1], X[2]);
                 X[a] = wrapped;
                 const size_t wi = grid_index(g, X[0], X[1], X[2]);
+                if (a == 0 && i + PERIODIC_AHEAD <= hi[b]) {
+                    /* along x the values are a row apart, a cache line each, on a
+                     * new page every few rows where the hardware prefetcher stops:
+                     * ask for the lines PERIODIC_AHEAD rows on */
+                    const ptrdiff_t d = (ptrdiff_t)PERIODIC_AHEAD * (ptrdiff_t)g->s[0];
+                    for (int k = 0; k < nq; k++) {
+                        const size_t slot = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(qs[k]) : qs[k]) * p->n;
+                        pops_prefetch(p, slot + (size_t)((ptrdiff_t)gi + d), 1);
+                        pops_prefetch(p, slot + (size_t)((ptrdiff_t)wi + d), 1);
+                    }
+                }
                 for (int k = 0; k < nq; k++) {
                     const int q = qs[k];
                     const size_t slot = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(q) : q) * p->n;
