@@ -852,7 +852,7 @@ static inline __attribute__((always_inline)) void row_moments(const pops_t *pl, 
 
 /* The sums of one z plane (totals), or only its worst trouble key in v[9]
  * (fluid_check: xs unused), with the layout state and precision known at
- * compile time (one copy per combination below); row: 4 n[0] doubles. */
+ * compile time (one copy per combination below); row: 5 n[0] doubles. */
 static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_t *fl, const pops_t *p0, int z,
                                                                     xsum_t *xs, double *v, double umax2, double *row,
                                                                     int totals, layout_state_t state, int single)
@@ -860,34 +860,45 @@ static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_
     const grid_t *g = &fl->g;
     const pops_t pl = pops_fixed(p0, state, single);
     const int nx = g->n[0];
-    double *rho = row, *jx = row + nx, *jy = row + 2 * nx, *jz = row + 3 * nx, uumax = 0.0;
+    double *rho = row, *jx = row + nx, *jy = row + 2 * nx, *jz = row + 3 * nx, *en = row + 4 * nx, uumax = 0.0;
     for (int y = 1; y <= g->n[1]; y++) {
         const size_t first = grid_index(g, 1, y, z);
         row_moments(&pl, first, nx, rho, jx, jy, jz);
         for (int x = 0; x < nx; x++) {
             const size_t i = first + (size_t)x;
             if (fl->flags[i] != CELL_FLUID) {
+                /* no term (exactly nothing added) */
+                rho[x] = jx[x] = jy[x] = jz[x] = en[x] = 0.0;
                 continue;
             }
             const double r = rho[x], j[3] = {jx[x], jy[x], jz[x]};
             double u[3];
             post_velocity(fl, r, j, u);
             if (totals) {
+                /* the row's terms in place of its moments, summed below */
                 const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-                xsum_add(&xs[0], r);
+                jx[x] = r * u[0];
+                jy[x] = r * u[1];
+                jz[x] = r * u[2];
+                en[x] = 0.5 * r * uu;
                 for (int a = 0; a < 3; a++) {
-                    xsum_add(&xs[1 + a], r * u[a]);
                     if (fabs(u[a]) > fabs(v[6 + a])) {
                         v[6 + a] = u[a];
                     }
                 }
-                xsum_add(&xs[4], 0.5 * r * uu);
                 uumax = uu > uumax ? uu : uumax;
             }
             const int cause = cell_trouble(r, u, umax2);
             if (cause != TROUBLE_NONE) {
                 v[9] = fmax(v[9], trouble_key(fl, cause, i));
             }
+        }
+        if (totals) {
+            xsum_add_array(&xs[0], rho, nx);
+            xsum_add_array(&xs[1], jx, nx);
+            xsum_add_array(&xs[2], jy, nx);
+            xsum_add_array(&xs[3], jz, nx);
+            xsum_add_array(&xs[4], en, nx);
         }
     }
     /* the largest speed (NaN ignored, as fmax does): sqrt is monotonic, so the
@@ -906,7 +917,7 @@ static int scan_planes(const fluid_t *fl, double umax2, double *plane, xsum_t *s
     int row_fail = 0;
 #pragma omp parallel reduction(| : row_fail)
     {
-        double *row = malloc(4 * (size_t)g->n[0] * sizeof(double));
+        double *row = malloc(5 * (size_t)g->n[0] * sizeof(double));
         row_fail = row == NULL;
 #pragma omp for schedule(static)
         for (int z = 1; z <= nz; z++) {
@@ -949,7 +960,7 @@ status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass,
         return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
                                             "out of memory for the plane sums of the totals (%zu bytes)",
                                             (size_t)nz * (NV * sizeof(double) + NS * sizeof(xsum_t)) +
-                                                4 * (size_t)g->n[0] * sizeof(double)));
+                                                5 * (size_t)g->n[0] * sizeof(double)));
     }
     /* exact sums (common/exact_sum.h): the same bits for any number of
      * threads and ranks; maxima are exact anyway */

@@ -100,6 +100,75 @@ static void test_rounding_to_nearest_even(void)
     CU_ASSERT_EQUAL(xsum_value(&s), 0x1p45 + 1.0);
 }
 
+/* any double of up to 2^45 in magnitude, most within the fixed-point range,
+ * some below 2^-88 (rounded away or to 2^-88), some beyond 2^40 */
+static double any_term(void)
+{
+    const double m = (double)(int64_t)(next() >> 11) * 0x1p-53; /* in [0, 1) */
+    const int e = (int)(next() % 140) - 95;
+    return ldexp(2.0 * m - 1.0, e);
+}
+
+static int same_sum(const xsum_t *a0, const xsum_t *b0)
+{
+    xsum_t a = *a0, b = *b0;
+    xsum_normalise(&a);
+    xsum_normalise(&b);
+    return memcmp(a.l, b.l, sizeof a.l) == 0 && (a.big == b.big || (isnan(a.big) && isnan(b.big)));
+}
+
+/* xsum_add_array is xsum_add term by term: the same limbs, also for ties at
+ * 2^-89 (rounded to even), terms beyond 2^40 and NaN, and lengths that are no
+ * multiple of four; and over more terms than its lanes hold before a flush */
+static void test_array_equals_term_by_term(void)
+{
+    static double v[1100000];
+    const int lengths[] = {0, 1, 3, 4, 7, 64, 1001, 1100000};
+    for (size_t k = 0; k < sizeof lengths / sizeof lengths[0]; k++) {
+        const int n = lengths[k];
+        for (int i = 0; i < n; i++) {
+            v[i] = any_term();
+        }
+        if (n >= 64) {
+            v[5] = 0x1p-89;        /* a tie: to 0 */
+            v[6] = 3.0 * 0x1p-89;  /* a tie: to 2^-87 */
+            v[9] = 0x1p41;         /* beyond the fixed-point range */
+            v[n - 2] = -0x1.fffffffffffffp39;
+        }
+        xsum_t a, b;
+        xsum_zero(&a);
+        xsum_zero(&b);
+        for (int i = 0; i < n; i++) {
+            xsum_add(&a, v[i]);
+        }
+        xsum_add_array(&b, v, n);
+        CU_ASSERT(same_sum(&a, &b));
+        CU_ASSERT_EQUAL(xsum_value(&a), xsum_value(&b));
+    }
+    /* large terms all of one sign: the most a lane's limbs reach */
+    for (int i = 0; i < 1100000; i++) {
+        v[i] = 0x1.fffffffffffffp39;
+    }
+    xsum_t a, b;
+    xsum_zero(&a);
+    xsum_zero(&b);
+    for (int i = 0; i < 1100000; i++) {
+        xsum_add(&a, v[i]);
+    }
+    xsum_add_array(&b, v, 1100000);
+    CU_ASSERT(same_sum(&a, &b));
+    /* NaN in a group */
+    v[2] = NAN;
+    xsum_zero(&a);
+    xsum_zero(&b);
+    for (int i = 0; i < 8; i++) {
+        xsum_add(&a, v[i]);
+    }
+    xsum_add_array(&b, v, 8);
+    CU_ASSERT(same_sum(&a, &b));
+    CU_ASSERT(isnan(xsum_value(&b)));
+}
+
 void exact_sum_register_tests(void)
 {
     CU_pSuite s = CU_add_suite("exact_sum", NULL, NULL);
@@ -107,4 +176,6 @@ void exact_sum_register_tests(void)
                 test_order_and_exact_value);
     CU_add_test(s, "each term is rounded to a multiple of 2^-88, to nearest, ties to even",
                 test_rounding_to_nearest_even);
+    CU_add_test(s, "four terms at a time (xsum_add_array) give the limbs of one at a time",
+                test_array_equals_term_by_term);
 }
