@@ -140,11 +140,17 @@ size_t spheres_list_pairs(const link_list_t *list, unsigned char *out)
     return m;
 }
 
-/* Keeps the pre-collision pairs of the list about to be rebuilt. */
-static int carry_out(link_list_t *list)
+/* Keeps the pre-collision pairs of the list about to be rebuilt: one pass,
+ * room for every link. Only multireflection keeps pairs (spheres_fill sets
+ * has_pre for links with a correction): for the other schemes the pass,
+ * a cache line per link, would find none. */
+static int carry_out(const spheres_t *sp, link_list_t *list)
 {
-    const size_t m = spheres_list_pairs(list, NULL);
-    if (!spheres_grow((void **)&list->carry, &list->capcarry, m, sizeof *list->carry)) {
+    list->ncarry = 0;
+    if (sp->scheme != BOUNDARY_MULTIREFLECTION || list->n == 0) {
+        return 1;
+    }
+    if (!spheres_grow((void **)&list->carry, &list->capcarry, list->n, sizeof *list->carry)) {
         return 0;
     }
     list->ncarry = spheres_list_pairs(list, (unsigned char *)list->carry);
@@ -176,7 +182,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                         link_list_t *list)
 {
     const sphere_t *p = &sp->s[k];
-    if (!sp->carried && !carry_out(list)) {
+    if (!sp->carried && !carry_out(sp, list)) {
         return 0;
     }
     if (!spheres_near_block(sp, p->c, p->r + 2.0, sp->lo, sp->nb)) {
