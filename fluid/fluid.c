@@ -75,7 +75,7 @@ static void init_uniform(fluid_t *fl, double rho, const double u[3])
  * and no start-up transient. Velocity gradients by central differences over
  * one cell, exact for the quadratic plane-channel profile. The momentum
  * is that after a collision with Guo's body force, rho u + F/2. */
-static int init_profile(fluid_t *fl, const scene_t *scene)
+static status_t init_profile(fluid_t *fl, const scene_t *scene, const log_t *log)
 {
     const grid_t *g = &fl->g;
     const double dx = scene->fluid.dx, uv = units_velocity(&fl->units), tau = scene->fluid.tau;
@@ -89,7 +89,8 @@ static int init_profile(fluid_t *fl, const scene_t *scene)
     const int n = scene->fluid.channel_axis, len = n >= 0 ? g->s[n] : 1;
     double *vals = malloc((size_t)len * LB_Q * sizeof *vals);
     if (vals == NULL) {
-        return 0;
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the initial profile's planes (%zu bytes)",
+                       (size_t)len * LB_Q * sizeof *vals);
     }
 #pragma omp parallel for schedule(static)
     for (int t = 0; t < len; t++) {
@@ -140,7 +141,7 @@ static int init_profile(fluid_t *fl, const scene_t *scene)
         }
     }
     free(vals);
-    return 1;
+    return STATUS_OK;
 }
 
 status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
@@ -208,9 +209,9 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
                           scene->fluid.initial_velocity[2] / uv};
     if (scene->fluid.initial_profile == INITIAL_UNIFORM) {
         init_uniform(fl, 1.0, u0);
-    } else if (!init_profile(fl, scene)) {
+    } else if (init_profile(fl, scene, log) != STATUS_OK) {
         fluid_free(fl);
-        return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the initial profile");
+        return STATUS_ERROR;
     }
     st = walls_build(&fl->walls, &fl->g, scene, &fl->units, &fl->d, log);
     fl->walls.flags = fl->flags;
