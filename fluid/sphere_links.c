@@ -236,25 +236,28 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                 for (int a = 0; a < 3; a++) {
                     inner = inner && Y[a] > 1 && Y[a] < g->n[a];
                 }
-                for (int q = 1; q < LB_Q; q++) {
-                    int B[3], W[3];
-                    size_t nb;
-                    if (inner) {
-                        nb = (size_t)((ptrdiff_t)i + off[q]);
-                    } else {
+                /* bit q: x_f + c_q is solid; gathered without a branch per
+                 * direction (solid or not is what a predictor cannot guess) */
+                uint32_t solid = 0;
+                if (inner) {
+                    for (int q = 1; q < LB_Q; q++) {
+                        solid |= (uint32_t)((flags[(size_t)((ptrdiff_t)i + off[q])] & FLAG_SOLID) != 0) << q;
+                    }
+                } else {
+                    for (int q = 1; q < LB_Q; q++) {
+                        int B[3], W[3];
                         for (int a = 0; a < 3; a++) {
                             B[a] = Y[a] + lb_c[q][a] + sp->lo[a];
                         }
                         /* a neighbour: in the block or its ghost layer, whose
                          * flags mark_sphere set as the owner's */
-                        if (!spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W)) {
-                            continue;
+                        if (spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W)) {
+                            solid |= (uint32_t)((flags[grid_index(g, W[0], W[1], W[2])] & FLAG_SOLID) != 0) << q;
                         }
-                        nb = grid_index(g, W[0], W[1], W[2]);
                     }
-                    if (!(flags[nb] & FLAG_SOLID)) {
-                        continue;
-                    }
+                }
+                for (; solid != 0; solid &= solid - 1) {
+                    const int q = __builtin_ctz(solid); /* in increasing q, as the keys want */
                     /* Eq. 5: the nearest intersection over the candidates wins
                      * (ties to the lower index); a link of k must hit k first */
                     double delta = ray_delta(dk, q, p->r);
