@@ -814,6 +814,7 @@ static status_t trouble_finish(const fluid_t *fl, double key, double mach_limit)
 }
 
 enum { DIAG_NV = 10 }; /* mass, momentum 3, kinetic, umax, peak 3, trouble key */
+enum { DIAG_ROW = 5 }; /* doubles per cell of a scan's row buffer: density, momentum 3, kinetic */
 
 /* Density and momentum of the nx cells of the row that starts at cell
  * first, with the layout state and precision known at compile time: one
@@ -853,7 +854,7 @@ static inline __attribute__((always_inline)) void row_moments(const pops_t *pl, 
 
 /* The sums of one z plane (totals), or only its worst trouble key in v[9]
  * (fluid_check: xs unused), with the layout state and precision known at
- * compile time (one copy per combination below); row: 5 n[0] doubles. */
+ * compile time (one copy per combination below); row: DIAG_ROW n[0] doubles. */
 static inline __attribute__((always_inline)) void diagnostics_plane(const fluid_t *fl, const pops_t *p0, int z,
                                                                     xsum_t *xs, double *v, double umax2, double *row,
                                                                     int totals, layout_state_t state, int single)
@@ -918,7 +919,7 @@ static int scan_planes(const fluid_t *fl, double umax2, double *plane, xsum_t *s
     int row_fail = 0;
 #pragma omp parallel reduction(| : row_fail)
     {
-        double *row = malloc(5 * (size_t)g->n[0] * sizeof(double));
+        double *row = malloc(DIAG_ROW * (size_t)g->n[0] * sizeof(double));
         row_fail = row == NULL;
 #pragma omp for schedule(static)
         for (int z = 1; z <= nz; z++) {
@@ -961,7 +962,7 @@ status_t fluid_diagnostics_lattice(fluid_t *fl, double mach_limit, double *mass,
         return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
                                             "out of memory for the plane sums of the totals (%zu bytes)",
                                             (size_t)nz * (NV * sizeof(double) + NS * sizeof(xsum_t)) +
-                                                5 * (size_t)g->n[0] * sizeof(double)));
+                                                DIAG_ROW * (size_t)g->n[0] * sizeof(double)));
     }
     /* exact sums (common/exact_sum.h): the same bits for any number of
      * threads and ranks; maxima are exact anyway */
@@ -1014,7 +1015,7 @@ status_t fluid_check(fluid_t *fl, double mach_limit)
         return decomp_agree(&fl->d, log_msg(&fl->log, STATUS_ERROR, "fluid",
                                             "out of memory for the check of the grid (%zu bytes)",
                                             (size_t)nz * DIAG_NV * sizeof(double) +
-                                                4 * (size_t)fl->g.n[0] * sizeof(double)));
+                                                DIAG_ROW * (size_t)fl->g.n[0] * sizeof(double)));
     }
     double worst = 0.0;
     for (int z = 0; z < nz; z++) {

@@ -20,6 +20,7 @@
 
 /* links ahead at which spheres_fill prefetches a cell's populations */
 #define FILL_AHEAD 12
+/* links ahead at which it prefetches a link's own scattered values */
 #define LINK_AHEAD 8
 
 int spheres_locate(const int lo[3], const int n[3], const int open[6], const int periodic[3], const int N[3],

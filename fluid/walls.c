@@ -307,6 +307,10 @@ static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[
     for (int side = 0; side < 2; side++) {
         /* ghost at coordinate 0 (side 0) or n + 1 (side 1); its directions */
         nq = lb_crossing(a, push ? (side == 0 ? -1 : 1) : (side == 0 ? 1 : -1), qs);
+        size_t slot[5]; /* where each direction's array starts */
+        for (int k = 0; k < nq; k++) {
+            slot[k] = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(qs[k]) : qs[k]) * p->n;
+        }
         const int ghost = side == 0 ? 0 : n + 1, wrapped = side == 0 ? n : 1;
         int X[3];
         const int b = (a + 1) % 3, c = (a + 2) % 3;
@@ -325,18 +329,15 @@ static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[
                      * ask for the lines PERIODIC_AHEAD rows on */
                     const ptrdiff_t d = (ptrdiff_t)PERIODIC_AHEAD * (ptrdiff_t)g->s[0];
                     for (int k = 0; k < nq; k++) {
-                        const size_t slot = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(qs[k]) : qs[k]) * p->n;
-                        pops_prefetch(p, slot + (size_t)((ptrdiff_t)gi + d), 1);
-                        pops_prefetch(p, slot + (size_t)((ptrdiff_t)wi + d), 1);
+                        pops_prefetch(p, slot[k] + (size_t)((ptrdiff_t)gi + d), 1);
+                        pops_prefetch(p, slot[k] + (size_t)((ptrdiff_t)wi + d), 1);
                     }
                 }
                 for (int k = 0; k < nq; k++) {
-                    const int q = qs[k];
-                    const size_t slot = (size_t)(p->state == LAYOUT_SWAPPED ? lb_opposite(q) : q) * p->n;
                     if (push) {
-                        pops_copy(p, slot + wi, slot + gi);
+                        pops_copy(p, slot[k] + wi, slot[k] + gi);
                     } else {
-                        pops_copy(p, slot + gi, slot + wi);
+                        pops_copy(p, slot[k] + gi, slot[k] + wi);
                     }
                 }
             }
