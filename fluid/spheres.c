@@ -22,6 +22,8 @@
 #define FILL_AHEAD 12
 /* links ahead at which it prefetches a link's own scattered values */
 #define LINK_AHEAD 8
+/* cells whose loads spheres_fill sums at once (8 x 8 x 256 bytes of stack) */
+#define FILL_CHUNK 256
 
 int spheres_locate(const int lo[3], const int n[3], const int open[6], const int periodic[3], const int N[3],
                    const int X[3], int Y[3])
@@ -666,8 +668,12 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
     size_t cell = (size_t)-1;
     double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
     /* the load of a cell's links, summed in q order, then added exactly to
-     * the sphere's (common/exact_sum.h): the same bits on any ranks */
+     * the sphere's (common/exact_sum.h): the same bits on any ranks. The
+     * cells' loads wait in cb and go in FILL_CHUNK at a time, four terms at
+     * a time (xsum_add_array: the same value as one xsum_add per term) */
     double cl[8] = {0.0};
+    double cb[8][FILL_CHUNK];
+    int ncb = 0;
     sphere_t *p = list->n > 0 ? &sp->s[list->l[0].sphere] : NULL;
     /* the recovery of n^- from the post-collision populations (below) holds
      * away from omega_minus = 1 */
@@ -678,8 +684,14 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         if (l->xf != cell) { /* the links of a cell are consecutive (sphere_links) */
             if (n > 0) {
                 for (int a = 0; a < 8; a++) {
-                    xsum_add(&p->acc[a], cl[a]);
+                    cb[a][ncb] = cl[a];
                     cl[a] = 0.0;
+                }
+                if (++ncb == FILL_CHUNK) {
+                    for (int a = 0; a < 8; a++) {
+                        xsum_add_array(&p->acc[a], cb[a], ncb);
+                    }
+                    ncb = 0;
                 }
             }
             cell = l->xf;
@@ -807,7 +819,8 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
     }
     if (p != NULL) {
         for (int a = 0; a < 8; a++) {
-            xsum_add(&p->acc[a], cl[a]);
+            cb[a][ncb] = cl[a];
+            xsum_add_array(&p->acc[a], cb[a], ncb + 1);
         }
     }
 }
