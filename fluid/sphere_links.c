@@ -218,7 +218,21 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
     int X[3], Y[3];
     for (X[2] = lo[2]; X[2] <= hi[2]; X[2]++) {
         for (X[1] = lo[1]; X[1] <= hi[1]; X[1]++) {
-            for (X[0] = lo[0]; X[0] <= hi[0]; X[0]++) {
+            /* the row's cells within reach but not inside k lie in two
+             * intervals about c_k: visit those and a cell more on each side
+             * (the test below decides, so the links are the same) */
+            const double e = (X[1] - p->c[1]) * (X[1] - p->c[1]) + (X[2] - p->c[2]) * (X[2] - p->c[2]);
+            if (e > reach2 + 1.0) {
+                continue;
+            }
+            const double wo = sqrt(fmax(reach2 - e, 0.0)), wi = e < r2 ? sqrt(r2 - e) : -2.0;
+            const int x0 = (int)fmax(floor(p->c[0] - wo) - 1.0, lo[0]), x1 = (int)fmin(ceil(p->c[0] + wo) + 1.0, hi[0]);
+            const int skip0 = (int)ceil(p->c[0] - wi) + 1, skip1 = (int)floor(p->c[0] + wi) - 1;
+            for (X[0] = x0; X[0] <= x1; X[0]++) {
+                if (X[0] == skip0 && skip0 <= skip1) {
+                    X[0] = skip1; /* the cells in between are inside k by a cell or more */
+                    continue;
+                }
                 /* the box is about c_k, so X - c_k is the minimum image */
                 const double dk[3] = {X[0] - p->c[0], X[1] - p->c[1], X[2] - p->c[2]};
                 const double dd = dk[0] * dk[0] + dk[1] * dk[1] + dk[2] * dk[2];
