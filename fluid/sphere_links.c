@@ -31,16 +31,22 @@ static double ray_delta(const double d[3], int q, double r)
     return (b < 0.0 && t > 0.0 && t <= 1.0 + 1e-12) ? fmin(t, 1.0) : 0.0;
 }
 
-/* 1 when the cell k steps back along c_q from local X is fluid (ref in *out). */
-static int fluid_at(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, int k,
-                    size_t *out)
+/* 1 when the cell k steps back along c_q from local X (cell i) is fluid
+ * (ref in *out). */
+static inline int fluid_at(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], size_t i, int q,
+                           int k, size_t *out)
 {
-    int Z[3];
+    int Z[3], inner = 1;
     for (int a = 0; a < 3; a++) {
         Z[a] = X[a] - k * lb_c[q][a];
+        inner = inner && Z[a] >= 1 && Z[a] <= sp->nb[a];
     }
     uint8_t flag;
-    if (!spheres_cell(sp, g, flags, Z, out, &flag)) {
+    if (inner) {
+        /* a cell of the block: what spheres_cell gives, without the call */
+        *out = (size_t)((ptrdiff_t)i - k * grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]));
+        flag = flags[*out];
+    } else if (!spheres_cell(sp, g, flags, Z, out, &flag)) {
         return 0;
     }
     return (flag & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
@@ -319,8 +325,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     l->fresh = (flags[i] & FLAG_FRESH) != 0;
                     /* written after the exchange: a cell of an outer row (fluid.c step_overlapped) */
                     l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
-                    const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
-                    const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
+                    const int have_ff = fluid_at(sp, g, flags, Y, i, q, 1, &l->xff);
+                    const int have_fff = have_ff && fluid_at(sp, g, flags, Y, i, q, 2, &l->xfff);
                     boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, &l->co);
                     for (int a = 0; a < 3; a++) {
                         l->rw[a] = dk[a] + delta * lb_c[q][a];
