@@ -14,6 +14,7 @@
 #include "../fluid/decomp.h"
 #include "../fluid/grid.h"
 #include "../fluid/lattice.h"
+#include "../fluid/units.h"
 
 #include <stdio.h>
 
@@ -44,7 +45,7 @@ static double value_bytes(const scene_t *s) { return s->fluid.precision == PRECI
 static double block_bytes(const scene_t *s, const int n[3])
 {
     grid_t g;
-    grid_init(&g, n);
+    grid_init(&g, n, units_grid_align(s));
     const double arrays = s->fluid.streaming == STREAMING_TWO_ARRAY ? 2.0 : 1.0;
     return arrays * LB_Q * (double)g.stride * value_bytes(s) + (double)g.ncells;
 }

@@ -27,7 +27,7 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
         return STATUS_ERROR;
     }
     grid_t g;
-    grid_init(&g, u.n);
+    grid_init(&g, u.n, units_grid_align(s));
     const double interior = (double)u.n[0] * u.n[1] * u.n[2];
     need->grid_cells = (double)g.ncells;
     need->cell_bytes = units_bytes_per_cell(s);

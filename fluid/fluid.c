@@ -164,7 +164,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
         free(fl);
         return st;
     }
-    grid_init(&fl->g, fl->d.n);
+    grid_init(&fl->g, fl->d.n, units_grid_align(scene));
     fl->kp.omega_plus = fl->units.omega_plus;
     fl->kp.omega_minus = fl->units.omega_minus;
     memcpy(fl->kp.force, fl->units.force_lat, sizeof fl->kp.force);

@@ -51,6 +51,8 @@ double units_bytes_per_cell(const scene_t *s)
     return arrays * LB_Q * bytes + 1.0;
 }
 
+int units_grid_align(const scene_t *s) { return s->fluid.streaming == STREAMING_TWO_ARRAY ? GRID_ALIGN : 1; }
+
 /* Smallest extent between two non-periodic faces across an axis other than
  * `along`, the width that bounds a channel flow; 0 when there is none. */
 static double channel_width(const scene_t *s, int along)
@@ -141,7 +143,7 @@ void units_assess(const scene_t *s, const units_t *u, const log_t *log, units_as
     a->reynolds = a->u_max * a->length / u->nu;
     a->steps = (long)ceil(s->run.end_time / u->dt - 1e-9);
     grid_t gr;
-    grid_init(&gr, u->n);
+    grid_init(&gr, u->n, units_grid_align(s));
     a->bytes = (double)gr.ncells * units_bytes_per_cell(s);
 
     if (a->mach > 0.1) {

@@ -49,5 +49,8 @@ void units_assess(const scene_t *s, const units_t *u, const log_t *log, units_as
 /* Bytes per allocated cell: the population arrays of the scene's streaming
  * layout (one in place, two otherwise) in its precision, and the cell flag. */
 double units_bytes_per_cell(const scene_t *s);
+/* The multiple of cells the grid's x extent is padded to (grid_init):
+ * GRID_ALIGN with two arrays, 1 in place. */
+int units_grid_align(const scene_t *s);
 
 #endif
