@@ -17,7 +17,7 @@
 
 /* delta of the ray x + t c_q, t in (0, 1], against a sphere of radius r
  * whose centre is at x - d; 0 if it starts inside or misses. */
-static double ray_delta(const double d[3], int q, double r)
+static inline __attribute__((always_inline)) double ray_delta(const double d[3], int q, double r)
 {
     const double cc = (double)(lb_c[q][0] * lb_c[q][0] + lb_c[q][1] * lb_c[q][1] + lb_c[q][2] * lb_c[q][2]);
     const double b = d[0] * lb_c[q][0] + d[1] * lb_c[q][1] + d[2] * lb_c[q][2];
@@ -118,6 +118,33 @@ static int film_partner(const spheres_t *sp, int k, const double rw[3], const in
     return partner;
 }
 
+/* 0 when no wall point of sphere k (at r_k from c_k) can have a film
+ * partner: every other body's sphere and every face with a film farther
+ * than the cut-off (and 1e-6 cells, for the rounding of the wall points);
+ * film_partner would give -1 for each of its links. */
+static int film_possible(const spheres_t *sp, int k, const int *cand, double (*rel)[3], int nc)
+{
+    const sphere_t *p = &sp->s[k];
+    const double reach = sp->film_cutoff + 1e-6;
+    if (!(sp->film_cutoff > 0.0)) {
+        return 0;
+    }
+    for (int c = 0; c < nc; c++) {
+        const sphere_t *m = &sp->s[cand[c]];
+        const double d = sqrt(rel[c][0] * rel[c][0] + rel[c][1] * rel[c][1] + rel[c][2] * rel[c][2]);
+        if (m->body != p->body && d - p->r - m->r < reach) {
+            return 1;
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        if ((sp->film_face[2 * a] && p->c[a] - p->r - 0.5 < reach) ||
+            (sp->film_face[2 * a + 1] && sp->N[a] + 0.5 - (p->c[a] + p->r) < reach)) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
 /* The links of sphere k: every fluid cell x_f in its box (plus a cell) and
  * direction q with x_f + c_q solid whose ray hits k first (Eq. 5, nearest
  * intersection over the candidates). A link thus belongs to exactly one
@@ -207,6 +234,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
         }
     }
     nc = m_n;
+    const int film = film_possible(sp, k, cand, rel, nc);
     const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
     ptrdiff_t off[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
@@ -331,7 +359,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     for (int a = 0; a < 3; a++) {
                         l->rw[a] = dk[a] + delta * lb_c[q][a];
                     }
-                    l->film = film_partner(sp, k, l->rw, cand, rel, nc);
+                    l->film = film ? film_partner(sp, k, l->rw, cand, rel, nc) : -1;
                 }
             }
         }
