@@ -2,6 +2,7 @@
 
 Bad input must end with a message that names the file, the key and the
 allowed range, a non-zero exit, and nothing written (DESIGN section 3, 4)."""
+import math
 import xml.etree.ElementTree as ET
 
 import h5py
@@ -185,3 +186,16 @@ def test_bench_json(coupler):
         stride = ncells + (512 + 24 - ncells % 512) % 512
         want = ((2 if s == "two_array" else 1) * 19 * stride * (8 if p == "double" else 4) + ncells) / 24**3
         assert b == pytest.approx(want, rel=0.005), (s, p)  # and the small lists of the walls
+
+
+def test_bench_coupled_json(coupler):
+    """`bench --coupled`: the best of each kind of run, their ratio, and the median of the
+    ratios within the pairs of runs."""
+    import json
+    p = run("bench", "--coupled", MODELS / "sinking_sphere.yaml", "--steps", "3", "--json")
+    assert p.returncode == 0, p.stderr
+    r = json.loads(p.stdout.strip().splitlines()[-1])
+    assert set(r) == {"scene", "steps", "coupled_s", "fluid_only_s", "ratio", "ratio_median"}
+    assert r["steps"] == 3 and r["coupled_s"] > 0 and r["fluid_only_s"] > 0
+    assert r["ratio"] == pytest.approx(r["coupled_s"] / r["fluid_only_s"], rel=1e-3)
+    assert math.isfinite(r["ratio_median"]) and r["ratio_median"] > 0
