@@ -284,7 +284,15 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
     int X[3], Y[3];
     for (X[2] = lo[2]; X[2] <= hi[2]; X[2]++) {
         for (X[1] = lo[1]; X[1] <= hi[1]; X[1]++) {
-            for (X[0] = lo[0]; X[0] <= hi[0]; X[0]++) {
+            /* the row's cells inside lie within w of c_k: those and a cell
+             * more each side (the test below decides) */
+            const double e = (X[1] - p->c[1]) * (X[1] - p->c[1]) + (X[2] - p->c[2]) * (X[2] - p->c[2]);
+            if (e > r2) {
+                continue;
+            }
+            const double w = sqrt(r2 - e);
+            const int x0 = (int)fmax(ceil(p->c[0] - w) - 1.0, lo[0]), x1 = (int)fmin(floor(p->c[0] + w) + 1.0, hi[0]);
+            for (X[0] = x0; X[0] <= x1; X[0]++) {
                 const double dx = X[0] - p->c[0], dy = X[1] - p->c[1], dz = X[2] - p->c[2];
                 if (dx * dx + dy * dy + dz * dz > r2 ||
                     !spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y) ||
@@ -458,9 +466,12 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
                            sp->nsolid + sp->nfresh + 1);
         }
         sp->solid[sp->nsolid++] = i;
+        if (was_solid || sp->first) {
+            continue; /* most marks: solid before (and cell_coords divides) */
+        }
         int Xc[3];
         cell_coords(g, i, Xc);
-        if (!was_solid && !sp->first && grid_is_interior(g, Xc[0], Xc[1], Xc[2])) {
+        if (grid_is_interior(g, Xc[0], Xc[1], Xc[2])) {
             double dp[3] = {0.0, 0.0, 0.0}, rho = 0.0;
             for (int q = 0; q < LB_Q; q++) {
                 const double v = pops_post(f, q, i);
@@ -469,10 +480,8 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
                     dp[a] += lb_c[q][a] * v;
                 }
             }
-            int X[3];
-            cell_coords(g, i, X);
-            galilean_shift(sp, marks[j].sphere, X, rho, dp);
-            book(sp, marks[j].sphere, X, dp);
+            galilean_shift(sp, marks[j].sphere, Xc, rho, dp);
+            book(sp, marks[j].sphere, Xc, dp);
             sp->covered_total++;
         }
     }
