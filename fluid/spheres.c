@@ -232,6 +232,7 @@ void spheres_free(spheres_t *sp)
     for (int k = 0; k < sp->n && sp->lists != NULL; k++) {
         free(sp->lists[k].l);
         free(sp->lists[k].carry);
+        free(sp->lists[k].inside);
     }
     free(sp->lists);
     free(sp->solid);
@@ -262,16 +263,14 @@ void spheres_advance_prescribed(spheres_t *sp, long step)
     }
 }
 
-/* Marks cells inside sphere k with FLAG_MARK; appends (cell, sphere) pairs. */
-typedef struct {
-    size_t cell;
-    int sphere;
-} mark_t;
-
-static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int k, mark_t **marks, size_t *nm,
-                            size_t *cap)
+/* Marks the cells inside sphere k with FLAG_MARK and lists them in the
+ * sphere's inside list; the spheres in parallel (overlapping ones set the
+ * same bit of a cell: an atomic or). */
+static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int k)
 {
     const sphere_t *p = &sp->s[k];
+    link_list_t *list = &sp->lists[k];
+    list->ninside = 0;
     if (!spheres_near_block(sp, p->c, p->r, sp->lo, sp->nb)) {
         return STATUS_OK; /* another rank's sphere */
     }
@@ -301,10 +300,12 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
                     continue; /* beyond a wall, or a halo cell outside the grid's ghost layer */
                 }
                 const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
-                if (!spheres_grow((void **)marks, cap, *nm + 1, sizeof **marks)) {
+                if (!spheres_grow((void **)&list->inside, &list->capinside, list->ninside + 1,
+                                  sizeof *list->inside)) {
                     return STATUS_ERROR;
                 }
-                (*marks)[(*nm)++] = (mark_t){i, k};
+                list->inside[list->ninside++] = i;
+#pragma omp atomic update
                 flags[i] |= FLAG_MARK;
             }
         }
@@ -421,14 +422,17 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         memcpy(sp->s[k].cmap, sp->s[k].c, sizeof sp->s[k].c);
     }
     sp->stale = 0;
-    mark_t *marks = NULL;
-    size_t nm = 0, cap = 0;
+    int failed = -1;
+#pragma omp parallel for schedule(dynamic, 1)
     for (int k = 0; k < sp->n; k++) {
-        if (mark_sphere(sp, g, flags, k, &marks, &nm, &cap) != STATUS_OK) {
-            free(marks);
-            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres (lists of %zu cells)",
-                           sp->nsolid + sp->nfresh + 1);
+        if (mark_sphere(sp, g, flags, k) != STATUS_OK) {
+#pragma omp critical(spheres_mark_failed)
+            failed = k;
         }
+    }
+    if (failed >= 0) {
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping sphere %d (a list of %zu cells)",
+                       failed, sp->lists[failed].ninside + 1);
     }
     /* uncovered: solid before, not marked now */
     sp->nfresh = 0;
@@ -444,48 +448,53 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
             continue;
         }
         if (!spheres_grow((void **)&sp->fresh, &sp->cap_fresh, sp->nfresh + 1, sizeof *sp->fresh)) {
-            free(marks);
             return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres (lists of %zu cells)",
                            sp->nsolid + sp->nfresh + 1);
         }
         sp->fresh[sp->nfresh++] = i;
         flags[i] = FLAG_FRESH;
     }
-    /* covered: marked now, fluid before; the new solid list */
+    /* covered: marked now, fluid before; the new solid list, sphere by
+     * sphere (a cell inside two goes with the first) */
+    size_t ninside = 0;
+    for (int k = 0; k < sp->n; k++) {
+        ninside += sp->lists[k].ninside;
+    }
+    if (!spheres_grow((void **)&sp->solid, &sp->cap_solid, ninside + 1, sizeof *sp->solid)) {
+        return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres (lists of %zu cells)",
+                       ninside + sp->nfresh + 1);
+    }
     sp->nsolid = 0;
-    for (size_t j = 0; j < nm; j++) {
-        const size_t i = marks[j].cell;
-        if (!(flags[i] & FLAG_MARK)) {
-            continue; /* already handled through another sphere */
-        }
-        const int was_solid = flags[i] & FLAG_SOLID;
-        flags[i] = FLAG_SOLID;
-        if (!spheres_grow((void **)&sp->solid, &sp->cap_solid, sp->nsolid + 1, sizeof *sp->solid)) {
-            free(marks);
-            return log_msg(log, STATUS_ERROR, "fluid", "out of memory while mapping spheres (lists of %zu cells)",
-                           sp->nsolid + sp->nfresh + 1);
-        }
-        sp->solid[sp->nsolid++] = i;
-        if (was_solid || sp->first) {
-            continue; /* most marks: solid before (and cell_coords divides) */
-        }
-        int Xc[3];
-        cell_coords(g, i, Xc);
-        if (grid_is_interior(g, Xc[0], Xc[1], Xc[2])) {
-            double dp[3] = {0.0, 0.0, 0.0}, rho = 0.0;
-            for (int q = 0; q < LB_Q; q++) {
-                const double v = pops_post(f, q, i);
-                rho += v;
-                for (int a = 0; a < 3; a++) {
-                    dp[a] += lb_c[q][a] * v;
-                }
+    for (int k = 0; k < sp->n; k++) {
+        const link_list_t *list = &sp->lists[k];
+        for (size_t j = 0; j < list->ninside; j++) {
+            const size_t i = list->inside[j];
+            if (!(flags[i] & FLAG_MARK)) {
+                continue; /* already handled through another sphere */
             }
-            galilean_shift(sp, marks[j].sphere, Xc, rho, dp);
-            book(sp, marks[j].sphere, Xc, dp);
-            sp->covered_total++;
+            const int was_solid = flags[i] & FLAG_SOLID;
+            flags[i] = FLAG_SOLID;
+            sp->solid[sp->nsolid++] = i;
+            if (was_solid || sp->first) {
+                continue; /* most cells: solid before (and cell_coords divides) */
+            }
+            int Xc[3];
+            cell_coords(g, i, Xc);
+            if (grid_is_interior(g, Xc[0], Xc[1], Xc[2])) {
+                double dp[3] = {0.0, 0.0, 0.0}, rho = 0.0;
+                for (int q = 0; q < LB_Q; q++) {
+                    const double v = pops_post(f, q, i);
+                    rho += v;
+                    for (int a = 0; a < 3; a++) {
+                        dp[a] += lb_c[q][a] * v;
+                    }
+                }
+                galilean_shift(sp, k, Xc, rho, dp);
+                book(sp, k, Xc, dp);
+                sp->covered_total++;
+            }
         }
     }
-    free(marks);
     /* refill, after all flags are final; fresh cells do not feed each other */
     for (size_t j = 0; j < sp->nfresh; j++) {
         const size_t i = sp->fresh[j];

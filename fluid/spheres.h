@@ -119,6 +119,8 @@ typedef struct {
     size_t n, cap;
     spheres_carry_t *carry; /* the pairs of the last links while they are rebuilt, in key order */
     size_t ncarry, capcarry;
+    size_t *inside;         /* the cells inside the sphere at the last map (spheres_map) */
+    size_t ninside, capinside;
 } link_list_t;
 
 typedef struct spheres_s {
