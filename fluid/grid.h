@@ -18,7 +18,7 @@
 
 typedef struct {
     int n[3];      /* interior cells */
-    int s[3];      /* allocated extent: s[1] = n[1]+2, s[2] = n[2]+2, s[0] >= n[0]+2 padded */
+    int s[3];      /* allocated extent: s[1] = n[1]+2, s[2] = n[2]+2, s[0] = n[0]+2 (padded with two arrays) */
     size_t ncells; /* s[0]*s[1]*s[2] */
     size_t stride; /* cells from one population to the next: ncells + a few (below) */
 } grid_t;
