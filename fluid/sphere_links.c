@@ -235,6 +235,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
     }
     nc = m_n;
     const int film = film_possible(sp, k, cand, rel, nc);
+    int near[nc > 0 ? nc : 1];
+    double dnear[nc > 0 ? nc : 1][3];
     const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
     ptrdiff_t off[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
@@ -304,20 +306,26 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                         }
                     }
                 }
+                /* the candidates a ray of length <= sqrt 2 from this cell can
+                 * reach (the same for every q), in increasing index */
+                int nn = 0;
+                for (int c = 0; c < nc && solid != 0; c++) {
+                    const double dm[3] = {dk[0] + rel[c][0], dk[1] + rel[c][1], dk[2] + rel[c][2]};
+                    const double rm = sp->s[cand[c]].r + 1.4143;
+                    if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] <= rm * rm) {
+                        memcpy(dnear[nn], dm, sizeof dm);
+                        near[nn++] = c;
+                    }
+                }
                 for (; solid != 0; solid &= solid - 1) {
                     const int q = __builtin_ctz(solid); /* in increasing q, as the keys want */
                     /* Eq. 5: the nearest intersection over the candidates wins
                      * (ties to the lower index); a link of k must hit k first */
                     double delta = ray_delta(dk, q, p->r);
                     int other = 0;
-                    for (int c = 0; c < nc && !other; c++) {
-                        const sphere_t *s = &sp->s[cand[c]];
-                        const double dm[3] = {dk[0] + rel[c][0], dk[1] + rel[c][1], dk[2] + rel[c][2]};
-                        const double rm = s->r + 1.4143;
-                        if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] > rm * rm) {
-                            continue;
-                        }
-                        const double t = ray_delta(dm, q, s->r);
+                    for (int j = 0; j < nn && !other; j++) {
+                        const int c = near[j];
+                        const double t = ray_delta(dnear[j], q, sp->s[cand[c]].r);
                         other = t > 0.0 && (delta == 0.0 || t < delta || (t == delta && cand[c] < k));
                     }
                     if (other) {
