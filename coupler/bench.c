@@ -284,7 +284,7 @@ int bench_coupled(const char *scene, long steps, const char *lib_dir, int json)
     qsort(ratios, PAIRS, sizeof ratios[0], compare_doubles);
     const double median = ratios[PAIRS / 2];
     if (json) {
-        printf("{\"scene\": \"%s\", \"steps\": %ld, \"coupled_s\": %.4f, \"fluid_only_s\": %.4f, \"ratio\": %.4f, "
+        printf("{\"scene\": \"%s\", \"steps\": %ld, \"coupled_s\": %.6f, \"fluid_only_s\": %.6f, \"ratio\": %.4f, "
                "\"ratio_median\": %.4f}\n",
                scene, steps, with, without, with / without, median);
     } else {
