@@ -31,22 +31,16 @@ static inline __attribute__((always_inline)) double ray_delta(const double d[3],
     return (b < 0.0 && t > 0.0 && t <= 1.0 + 1e-12) ? fmin(t, 1.0) : 0.0;
 }
 
-/* 1 when the cell k steps back along c_q from local X (cell i) is fluid
- * (ref in *out). */
-static inline int fluid_at(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], size_t i, int q,
-                           int k, size_t *out)
+/* 1 when the cell k steps back along c_q from local X is fluid (ref in *out). */
+static int fluid_at(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, int k,
+                    size_t *out)
 {
-    int Z[3], inner = 1;
+    int Z[3];
     for (int a = 0; a < 3; a++) {
         Z[a] = X[a] - k * lb_c[q][a];
-        inner = inner && Z[a] >= 1 && Z[a] <= sp->nb[a];
     }
     uint8_t flag;
-    if (inner) {
-        /* a cell of the block: what spheres_cell gives, without the call */
-        *out = (size_t)((ptrdiff_t)i - k * grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]));
-        flag = flags[*out];
-    } else if (!spheres_cell(sp, g, flags, Z, out, &flag)) {
+    if (!spheres_cell(sp, g, flags, Z, out, &flag)) {
         return 0;
     }
     return (flag & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
@@ -261,8 +255,9 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
             if (e > reach2 + 1.0) {
                 continue;
             }
-            const double wo = sqrt(fmax(reach2 - e, 0.0)), wi = e < r2 ? sqrt(r2 - e) : -2.0;
-            const int x0 = (int)fmax(floor(p->c[0] - wo) - 1.0, lo[0]), x1 = (int)fmin(ceil(p->c[0] + wo) + 1.0, hi[0]);
+            const double wi = e < r2 ? sqrt(r2 - e) : -2.0;
+            int x0, x1;
+            spheres_row_span(p->c[0], sqrt(fmax(reach2 - e, 0.0)), lo[0], hi[0], &x0, &x1);
             const int skip0 = (int)ceil(p->c[0] - wi) + 1, skip1 = (int)floor(p->c[0] + wi) - 1;
             for (X[0] = x0; X[0] <= x1; X[0]++) {
                 if (X[0] == skip0 && skip0 <= skip1) {
@@ -361,8 +356,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     l->fresh = (flags[i] & FLAG_FRESH) != 0;
                     /* written after the exchange: a cell of an outer row (fluid.c step_overlapped) */
                     l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
-                    const int have_ff = fluid_at(sp, g, flags, Y, i, q, 1, &l->xff);
-                    const int have_fff = have_ff && fluid_at(sp, g, flags, Y, i, q, 2, &l->xfff);
+                    const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
+                    const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
                     boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, &l->co);
                     for (int a = 0; a < 3; a++) {
                         l->rw[a] = dk[a] + delta * lb_c[q][a];

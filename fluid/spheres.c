@@ -79,13 +79,9 @@ static void global_of(const spheres_t *sp, const int Y[3], int X[3])
     }
 }
 
-int spheres_cell(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int Y[3], size_t *ref, uint8_t *flag)
+int spheres_cell_beyond(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int Y[3], size_t *ref,
+                        uint8_t *flag)
 {
-    if (Y[0] >= 1 && Y[0] <= sp->nb[0] && Y[1] >= 1 && Y[1] <= sp->nb[1] && Y[2] >= 1 && Y[2] <= sp->nb[2]) {
-        *ref = grid_index(g, Y[0], Y[1], Y[2]); /* a cell of the block: what spheres_locate gives */
-        *flag = flags[*ref];
-        return 1;
-    }
     int X[3], Z[3];
     global_of(sp, Y, X);
     const int where = spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Z);
@@ -289,8 +285,8 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
             if (e > r2) {
                 continue;
             }
-            const double w = sqrt(r2 - e);
-            const int x0 = (int)fmax(ceil(p->c[0] - w) - 1.0, lo[0]), x1 = (int)fmin(floor(p->c[0] + w) + 1.0, hi[0]);
+            int x0, x1;
+            spheres_row_span(p->c[0], sqrt(r2 - e), lo[0], hi[0], &x0, &x1);
             for (X[0] = x0; X[0] <= x1; X[0]++) {
                 const double dx = X[0] - p->c[0], dy = X[1] - p->c[1], dz = X[2] - p->c[2];
                 if (dx * dx + dy * dy + dz * dz > r2 ||

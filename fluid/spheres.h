@@ -203,9 +203,23 @@ int spheres_locate(const int lo[3], const int n[3], const int open[6], const int
  * coordinates, periodic images included) can meet the block lo, n widened
  * by two cells: a sphere far from a block costs it nothing. */
 int spheres_near_block(const spheres_t *sp, const double c[3], double r, const int lo[3], const int n[3]);
+/* spheres_cell for a cell beyond the block (a periodic image, or another
+ * rank's cell in the sphere halo). */
+int spheres_cell_beyond(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int Y[3], size_t *ref,
+                        uint8_t *flag);
 /* The cell at local allocated coordinates Y as the stage reads it: 1 and
- * ref, flag (grid flags, or the halo's) when available, else 0. */
-int spheres_cell(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int Y[3], size_t *ref, uint8_t *flag);
+ * ref, flag (grid flags, or the halo's) when available, else 0. Inline for
+ * a cell of the block, what the link scan reads for nearly every link. */
+static inline int spheres_cell(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int Y[3], size_t *ref,
+                               uint8_t *flag)
+{
+    if (Y[0] >= 1 && Y[0] <= sp->nb[0] && Y[1] >= 1 && Y[1] <= sp->nb[1] && Y[2] >= 1 && Y[2] <= sp->nb[2]) {
+        *ref = grid_index(g, Y[0], Y[1], Y[2]); /* a cell of the block: what spheres_locate gives */
+        *flag = flags[*ref];
+        return 1;
+    }
+    return spheres_cell_beyond(sp, g, flags, Y, ref, flag);
+}
 /* Post-collision population q of a cell reference. */
 static inline double spheres_post(const spheres_t *sp, const pops_t *p, int q, size_t ref)
 {

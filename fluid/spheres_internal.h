@@ -29,6 +29,15 @@ static inline int spheres_grow(void **p, size_t *cap, size_t need, size_t elem)
     return 1;
 }
 
+/* The cells x of a row within w of c along it, and a cell more on each
+ * side (for the rounding; the caller's own test decides), clamped to
+ * [lo, hi]: the part of a sphere's box a row scan need visit. */
+static inline void spheres_row_span(double c, double w, int lo, int hi, int *x0, int *x1)
+{
+    *x0 = (int)fmax(floor(c - w) - 1.0, lo);
+    *x1 = (int)fmin(ceil(c + w) + 1.0, hi);
+}
+
 /* Minimum-image difference a - b (global lattice coordinates) on the
  * periodic axes of the whole grid. */
 static inline void spheres_min_image(const spheres_t *sp, const double a[3], const double b[3], double d[3])
