@@ -33,7 +33,7 @@ SCENE    ?= models/sinking_sphere.yaml
 COMMON_SRC  := common/status.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
                common/scene_build.c common/scene_check.c common/coupling.c
 FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/lattice.c fluid/kernel.c fluid/kernel_single.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
-               fluid/spheres.c fluid/sphere_links.c fluid/state.c fluid/initial_profile.c fluid/fluid.c
+               fluid/spheres.c fluid/sphere_links.c fluid/state.c fluid/initial_profile.c fluid/fluid.c fluid/diagnostics.c fluid/scan.c
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
                rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \
                rigid/rigid_scene.c rigid/pairs.c rigid/lubrication.c rigid/contact_watch.c
@@ -142,7 +142,7 @@ drag-report: deps
 # parallel HDF5 for its field snapshots (common/h5fields.c); it uses MPI only
 # when its master has initialised it (fluid/decomp.c).
 FMU_FLUID_SRC := $(COMMON_SRC) common/fmi_vars.c common/h5fields.c \
-                 $(filter-out fluid/kernel.c fluid/kernel_single.c,$(FLUID_SRC)) fluid/kernel_dispatch.c fluid/fluid_fmi.c
+                 $(filter-out fluid/kernel.c fluid/kernel_single.c fluid/scan.c,$(FLUID_SRC)) fluid/kernel_dispatch.c fluid/fluid_fmi.c
 FMU_RIGID_SRC := $(COMMON_SRC) common/fmi_vars.c $(RIGID_SRC) rigid/rigid_fmi.c
 # FMUs travel to other machines: the x86-64 baseline (SSE2) instead of
 # -march=native (the kernel is memory-bound; see README "FMUs").
@@ -164,19 +164,20 @@ $(BUILD)/fmu/obj/fmi_adapter_fluid.o $(BUILD)/fmu/obj/fmi_adapter_rigid.o: $(BUI
 	@mkdir -p $(dir $@)
 	$(CC) $(FMU_CFLAGS) -DFMI_MODEL=$*_fmi_model -MMD -MP -c $< -o $@
 
-# the fluid kernels (double and single storage) twice, for the x86-64
-# baseline and for x86-64-v3 (AVX2, FMA); fluid/kernel_dispatch.c picks one
-# by the CPU at run time
-$(BUILD)/fmu/obj/kernel_base.o $(BUILD)/fmu/obj/kernel_single_base.o: $(BUILD)/fmu/obj/%_base.o: fluid/%.c
+# the fluid kernels (double and single storage) and the grid scan (fluid/
+# scan.c) twice, for the x86-64 baseline and for x86-64-v3 (AVX2, FMA);
+# fluid/kernel_dispatch.c picks one by the CPU at run time
+$(BUILD)/fmu/obj/kernel_base.o $(BUILD)/fmu/obj/kernel_single_base.o $(BUILD)/fmu/obj/scan_base.o: $(BUILD)/fmu/obj/%_base.o: fluid/%.c
 	@mkdir -p $(dir $@)
 	$(CC) $(FMU_CFLAGS) -DKERNEL_VARIANT=base -DKERNEL_PRIMARY -MMD -MP -c $< -o $@
-$(BUILD)/fmu/obj/kernel_v3.o $(BUILD)/fmu/obj/kernel_single_v3.o: $(BUILD)/fmu/obj/%_v3.o: fluid/%.c
+$(BUILD)/fmu/obj/kernel_v3.o $(BUILD)/fmu/obj/kernel_single_v3.o $(BUILD)/fmu/obj/scan_v3.o: $(BUILD)/fmu/obj/%_v3.o: fluid/%.c
 	@mkdir -p $(dir $@)
 	$(CC) $(FMU_CFLAGS) $(if $(FMU_ARCH),-march=x86-64-v3,) -DKERNEL_VARIANT=v3 -MMD -MP -c $< -o $@
 
 $(BUILD)/fmu/fluid.so: $(call fmu_obj,$(FMU_FLUID_SRC)) $(BUILD)/fmu/obj/fmi_adapter_fluid.o \
                        $(BUILD)/fmu/obj/kernel_base.o $(BUILD)/fmu/obj/kernel_v3.o \
-                       $(BUILD)/fmu/obj/kernel_single_base.o $(BUILD)/fmu/obj/kernel_single_v3.o
+                       $(BUILD)/fmu/obj/kernel_single_base.o $(BUILD)/fmu/obj/kernel_single_v3.o \
+                       $(BUILD)/fmu/obj/scan_base.o $(BUILD)/fmu/obj/scan_v3.o
 	$(CC) $(FMU_CFLAGS) $(FMU_LDFLAGS) $^ -o $@ $(FMU_FLUID_LIBS)
 
 $(BUILD)/fmu/rigid.so: $(call fmu_obj,$(FMU_RIGID_SRC)) $(BUILD)/fmu/obj/fmi_adapter_rigid.o

@@ -49,6 +49,33 @@ static inline pops_t fluid_pops(const fluid_t *fl)
     return p;
 }
 
+/* Density and velocity of cell i from its post-collision populations: the
+ * collision keeps the density and adds the force F to the momentum, so the
+ * velocity it used is u = (sum c f~ - F/2) / rho (Guo et al. 2002). Needs no
+ * boundary values, and so is exact next to walls and spheres. */
+static inline void fluid_post_velocity(const fluid_t *fl, double rho, const double j[3], double u[3])
+{
+    for (int a = 0; a < 3; a++) {
+        u[a] = (j[a] - 0.5 * fl->kp.force[a]) / rho;
+    }
+}
+
+static inline __attribute__((always_inline)) void fluid_local_moments(const fluid_t *fl, const pops_t *f, size_t i,
+                                                               double *rho, double u[3])
+{
+    double j[3];
+    *rho = pops_moments(f, i, j);
+    fluid_post_velocity(fl, *rho, j, u);
+}
+
+/* The first remedy when a light body is coupled explicitly or without force
+ * averaging (kappa_risky): its speed, and the flow it drives, grow by the
+ * added-mass instability (README "Coupling"), whatever the step. */
+#define RISKY_COUPLING_REMEDY                                                                                         \
+    "set rigid.coupling: auto (the default) or implicit with fluid.force_averaging: true first: a light body "   \
+    "(feedback number h zeta / m large) is coupled explicitly or without force averaging, and a speed that grows " \
+    "by itself is that coupling's instability, not the step's"
+
 static inline int fluid_arrays(const fluid_t *fl) { return fl->streaming == STREAMING_TWO_ARRAY ? 2 : 1; }
 static inline size_t fluid_value_bytes(const fluid_t *fl) { return fl->single ? sizeof(float) : sizeof(double); }
 

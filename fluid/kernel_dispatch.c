@@ -3,8 +3,10 @@
  * KERNEL_VARIANT); the CPU decides at the first call. An FMU thus runs on any
  * x86-64 machine and at full speed on a recent one (measured here, 64^3:
  * 50 MLUPS baseline, 82 MLUPS with AVX2). The environment variable
- * AGGLO_KERNEL=base selects the baseline kernel on any CPU. */
+ * AGGLO_KERNEL=base selects the baseline kernel on any CPU. The grid scan of
+ * the totals and checks (scan.c) is compiled and picked the same way. */
 #include "kernel.h"
+#include "scan.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -74,4 +76,12 @@ void kernel_in_place_f32(const grid_t *g, const kernel_params_t *p, float *f, in
     } else {
         kernel_in_place_f32_base(g, p, f, push, box);
     }
+}
+
+int fluid_scan_base(const fluid_t *fl, double umax2, double *plane, xsum_t *sums, int totals);
+int fluid_scan_v3(const fluid_t *fl, double umax2, double *plane, xsum_t *sums, int totals);
+
+int fluid_scan(const fluid_t *fl, double umax2, double *plane, xsum_t *sums, int totals)
+{
+    return use_v3() ? fluid_scan_v3(fl, umax2, plane, sums, totals) : fluid_scan_base(fl, umax2, plane, sums, totals);
 }

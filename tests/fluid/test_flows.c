@@ -19,6 +19,7 @@
 #include "fluid_tests.h"
 #include "test_util.h"
 
+#include "../../common/exact_sum.h"
 #include "../../fluid/lattice.h"
 
 #include <CUnit/CUnit.h>
@@ -481,6 +482,101 @@ static void test_trouble_detected(void)
     CU_ASSERT_EQUAL(totals, STATUS_OK);
 }
 
+/* The totals' pass against its definition, cell by cell: a 13 x 35 x 6 box
+ * (a row of 13 cells: the scan's four-cell groups leave one over; 35 rows:
+ * two of its chunks of 32) with a body force (u = (j - F/2) / rho) and a
+ * random field. Mass, momentum rho u and kinetic energy rho u^2 / 2 summed
+ * exactly here from fluid_moments_lattice must be the same bits; the
+ * largest speed too; the peak of each axis is the signed value of the first
+ * cell (x fastest) of largest magnitude, here a tie of
+ * -0.12 before +0.12 along y.
+ * Then two cells above the Mach limit: the first in order is named; with a
+ * NaN cell after both, the NaN (the worse cause). */
+static void test_totals_pass_exact(void)
+{
+    enum { NX = 13, NY = 35, NZ = 6, NC = NX * NY * NZ };
+    scene_t s = test_box(NX, NY, NZ, 0.8, COLLISION_TRT);
+    s.fluid.body_force[0] = 2e-5;
+    s.fluid.body_force[2] = -1e-5;
+    test_log_t tl;
+    log_t l = test_log(&tl);
+    fluid_t *fl = NULL;
+    CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &fl), STATUS_OK);
+    double *r = malloc(sizeof(double) * NC), *u = malloc(3 * sizeof(double) * NC);
+    CU_ASSERT_FATAL(r != NULL && u != NULL);
+    unsigned long long seed = 12345;
+    for (int i = 0; i < NC; i++) {
+        for (int a = 0; a < 4; a++) {
+            seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+            const double x = (double)(seed >> 11) / 9007199254740992.0 - 0.5; /* [-0.5, 0.5) */
+            if (a == 0) {
+                r[i] = 1.0 + 0.1 * x;
+            } else {
+                u[3 * i + a - 1] = 0.1 * x;
+            }
+        }
+    }
+    const int first = 5 + NX * (3 + NY * 1), later = 2 + NX * (30 + NY * 4);
+    r[first] = r[later] = 1.0;
+    u[3 * first + 1] = -0.12;
+    u[3 * later + 1] = 0.12;
+    fluid_set_equilibrium_lattice(fl, r, u);
+    /* the definition, from the moments the collision used */
+    double *rho = malloc(sizeof(double) * NC), *v = malloc(3 * sizeof(double) * NC);
+    CU_ASSERT_FATAL(rho != NULL && v != NULL);
+    fluid_moments_lattice(fl, rho, v);
+    xsum_t sum[5];
+    for (int k = 0; k < 5; k++) {
+        xsum_zero(&sum[k]);
+    }
+    double uumax = 0.0, want_peak[3] = {0.0, 0.0, 0.0};
+    for (int i = 0; i < NC; i++) {
+        const double *w = &v[3 * i];
+        const double uu = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+        xsum_add(&sum[0], rho[i]);
+        for (int a = 0; a < 3; a++) {
+            xsum_add(&sum[1 + a], rho[i] * w[a]);
+            if (fabs(w[a]) > fabs(want_peak[a])) {
+                want_peak[a] = w[a];
+            }
+        }
+        xsum_add(&sum[4], 0.5 * rho[i] * uu);
+        uumax = fmax(uumax, uu);
+    }
+    /* the tie is exact, and the first of it wins */
+    CU_ASSERT_EQUAL(v[3 * first + 1], -v[3 * later + 1]);
+    CU_ASSERT(want_peak[1] < -0.11);
+    double mass, mom[3], ke, umax, peak[3];
+    CU_ASSERT_EQUAL(fluid_diagnostics_lattice(fl, 0.3, &mass, mom, &ke, &umax, peak), STATUS_OK);
+    CU_ASSERT_EQUAL(mass, xsum_value(&sum[0]));
+    for (int a = 0; a < 3; a++) {
+        CU_ASSERT_EQUAL(mom[a], xsum_value(&sum[1 + a]));
+        CU_ASSERT_EQUAL(peak[a], want_peak[a]);
+    }
+    CU_ASSERT_EQUAL(ke, xsum_value(&sum[4]));
+    CU_ASSERT_EQUAL(umax, sqrt(uumax));
+    /* two cells above Mach 0.3 (|u| 0.25 = Mach 0.43): the first in order */
+    const int mach1 = 11 + NX * (33 + NY * 2), mach2 = 4 + NX * (2 + NY * 3), nan_cell = 0 + NX * (0 + NY * 5);
+    u[3 * mach1 + 1] = 0.25;
+    u[3 * mach2 + 2] = -0.25;
+    fluid_set_equilibrium_lattice(fl, r, u);
+    CU_ASSERT_EQUAL(fluid_diagnostics_lattice(fl, 0.3, &mass, mom, &ke, &umax, peak), STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "cell (11, 33, 2)"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "Mach limit"));
+    CU_ASSERT_EQUAL(fluid_check(fl, 0.3), STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "cell (11, 33, 2)"));
+    r[nan_cell] = NAN;
+    fluid_set_equilibrium_lattice(fl, r, u);
+    CU_ASSERT_EQUAL(fluid_diagnostics_lattice(fl, 0.3, &mass, mom, &ke, &umax, peak), STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "cell (0, 0, 5)"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "non-finite density"));
+    free(r);
+    free(u);
+    free(rho);
+    free(v);
+    fluid_free(fl);
+}
+
 void flows_register_tests(int validate)
 {
     (void)validate;
@@ -498,6 +594,8 @@ void flows_register_tests(int validate)
     CU_add_test(s, "inlet/outlet channel: profile and pressure drop", test_inlet_outlet_channel);
     CU_add_test(s, "numerical trouble: NaN, non-positive density, Mach limit found with cell and position",
                 test_trouble_detected);
+    CU_add_test(s, "totals pass: exact sums, largest speed, first peak and first cell in trouble, cell by cell",
+                test_totals_pass_exact);
 }
 
 void fluid_register_tests(int validate)
