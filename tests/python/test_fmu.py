@@ -104,8 +104,8 @@ def test_export_writes_both_fmus_with_scene_and_library(fmus):
                     reason="the portability check reads x86-64 machine code with objdump")
 def test_fmu_binaries_run_on_any_x86_64(fmus, tmp_path):
     # built for the x86-64 baseline, not -march=native: AVX (ymm/zmm) instructions, which a CPU
-    # without AVX would trap on, appear only in the AVX2 variant of the fluid kernel, which
-    # kernel_dispatch.c calls only on a CPU that has AVX2 and FMA
+    # without AVX would trap on, appear only in the AVX2 variants of the fluid kernel and of the
+    # grid scan (fluid/scan.c), which kernel_dispatch.c calls only on a CPU that has AVX2 and FMA
     for name in ("fluid", "rigid"):
         with zipfile.ZipFile(fmus["free"] / f"{name}.fmu") as z:
             so = tmp_path / f"{name}.so"
@@ -119,9 +119,10 @@ def test_fmu_binaries_run_on_any_x86_64(fmus, tmp_path):
             elif "%ymm" in line or "%zmm" in line:
                 with_avx.add(fn)
         if name == "fluid":
-            # the AVX2 variants of the kernels: two layouts, two precisions
-            assert with_avx and all(f.startswith("kernel_") and "_v3" in f for f in with_avx), with_avx
-            for k in ("kernel_stream_collide", "kernel_in_place", "kernel_stream_collide_f32", "kernel_in_place_f32"):
+            # the AVX2 variants of the kernels (two layouts, two precisions) and of the scan
+            assert with_avx and all(f.startswith(("kernel_", "fluid_scan_")) and "_v3" in f for f in with_avx), with_avx
+            for k in ("kernel_stream_collide", "kernel_in_place", "kernel_stream_collide_f32", "kernel_in_place_f32",
+                      "fluid_scan"):
                 assert f"<{k}_base" in asm and f"<{k}_v3" in asm, k
         else:
             assert not with_avx, with_avx
