@@ -1,4 +1,6 @@
-/* fluid.c — the fluid component: creation, the time step, fields, checks.
+/* fluid.c — the fluid component: creation, the time step, fields, the
+ * spheres' loads (the totals and the check for numerical trouble:
+ * diagnostics.c and scan.c).
  *
  * A step is the algorithm in two named stages: the boundary stage writes the
  * populations that interior cells receive from ghost and solid neighbours
