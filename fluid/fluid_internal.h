@@ -60,8 +60,8 @@ static inline void fluid_post_velocity(const fluid_t *fl, double rho, const doub
     }
 }
 
-static inline __attribute__((always_inline)) void fluid_local_moments(const fluid_t *fl, const pops_t *f, size_t i,
-                                                               double *rho, double u[3])
+static inline __attribute__((always_inline)) void fluid_local_moments(const fluid_t *fl, const pops_t *f,
+                                                                     size_t i, double *rho, double u[3])
 {
     double j[3];
     *rho = pops_moments(f, i, j);
