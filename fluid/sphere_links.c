@@ -277,9 +277,10 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                 if ((flags[i] & ~FLAG_FRESH) != 0) {
                     continue; /* solid or ghost */
                 }
-                int inner = 1; /* all neighbours inside the grid: no wrap needed */
+                int inner = 1, inner2 = 1; /* all neighbours (and theirs) inside the grid: no wrap needed */
                 for (int a = 0; a < 3; a++) {
                     inner = inner && Y[a] > 1 && Y[a] < g->n[a];
+                    inner2 = inner2 && Y[a] > 2 && Y[a] < g->n[a] - 1;
                 }
                 /* bit q: x_f + c_q is solid; gathered without a branch per
                  * direction (solid or not is what a predictor cannot guess) */
@@ -356,8 +357,20 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     l->fresh = (flags[i] & FLAG_FRESH) != 0;
                     /* written after the exchange: a cell of an outer row (fluid.c step_overlapped) */
                     l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
-                    const int have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
-                    const int have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
+                    int have_ff, have_fff;
+                    if (inner2) {
+                        /* x_f - c_q and x_f - 2 c_q in the block: their indices from i's */
+                        l->xff = (size_t)((ptrdiff_t)i - off[q]);
+                        have_ff = (flags[l->xff] & ~FLAG_FRESH) == 0;
+                        have_fff = 0;
+                        if (have_ff) {
+                            l->xfff = (size_t)((ptrdiff_t)i - 2 * off[q]);
+                            have_fff = (flags[l->xfff] & ~FLAG_FRESH) == 0;
+                        }
+                    } else {
+                        have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
+                        have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
+                    }
                     boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, &l->co);
                     for (int a = 0; a < 3; a++) {
                         l->rw[a] = dk[a] + delta * lb_c[q][a];
