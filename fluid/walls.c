@@ -275,7 +275,7 @@ void walls_free(walls_t *w)
     w->ncopies = 0;
 }
 
-static void moments(const pops_t *p, size_t cell, double *rho, double u[3])
+static inline void moments(const pops_t *p, size_t cell, double *rho, double u[3])
 {
     double j[3];
     *rho = pops_moments(p, cell, j);
@@ -430,6 +430,8 @@ void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
     walls_links(w, p, WALLS_ALL);
 }
 
+enum { WALLS_AHEAD = 16 };
+
 void walls_links_prepare(const walls_t *w, const pops_t *p)
 {
     const ptrdiff_t n = (ptrdiff_t)w->nlinks;
@@ -448,7 +450,21 @@ void walls_links_prepare(const walls_t *w, const pops_t *p)
             if (l->cell != last) {
                 last = l->cell;
                 last_axis = -1;
-                moments(p, last, &rho_last, u_last);
+                if (w->kappa != 0.0) {
+                    moments(p, last, &rho_last, u_last);
+                } else {
+                    double j[3]; /* no slip term: the density only */
+                    rho_last = pops_moments(p, last, j);
+                }
+            }
+            /* the cells' populations are a cache line each and cold (the
+             * kernel's pass evicted them): ask for those of the cell
+             * WALLS_AHEAD links on */
+            if (i + WALLS_AHEAD < n && w->links[i + WALLS_AHEAD].cell != w->links[i + WALLS_AHEAD - 1].cell) {
+                const size_t ahead = w->links[i + WALLS_AHEAD].cell;
+                for (int q = 0; q < LB_Q; q++) {
+                    pops_prefetch(p, pops_post_slot(p, q, ahead), 0);
+                }
             }
             if (slip && l->axis != last_axis) {
                 /* kappa P_t u'' along the inward normal, from fluid cells only (a sphere may cover them) */
