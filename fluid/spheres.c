@@ -590,7 +590,9 @@ void spheres_pairs_out(const spheres_t *sp, unsigned char *buf)
         uint64_t m;
         if (sp->carried) {
             m = list->ncarry;
-            memcpy(buf + sizeof m, list->carry, list->ncarry * sizeof *list->carry);
+            if (m > 0) {
+                memcpy(buf + sizeof m, list->carry, list->ncarry * sizeof *list->carry);
+            }
         } else {
             m = spheres_list_pairs(list, buf + sizeof m);
         }
@@ -627,7 +629,9 @@ int spheres_pairs_in(spheres_t *sp, const unsigned char *buf)
         if (!spheres_grow((void **)&list->carry, &list->capcarry, (size_t)m, sizeof *list->carry)) {
             return 0;
         }
-        memcpy(list->carry, buf, (size_t)m * sizeof *list->carry);
+        if (m > 0) { /* carry is NULL before any pair */
+            memcpy(list->carry, buf, (size_t)m * sizeof *list->carry);
+        }
         list->ncarry = (size_t)m;
         buf += (size_t)m * sizeof *list->carry;
     }

@@ -113,7 +113,9 @@ static int inner_row(const grid_t *g, size_t i)
                 (nearly) = k;                                        \
             }                                                        \
         }                                                            \
-        memcpy((arr), tmp, (n) * sizeof(T));                         \
+        if ((n) > 0) { /* arr is NULL without links */               \
+            memcpy((arr), tmp, (n) * sizeof(T));                     \
+        }                                                            \
         free(tmp);                                                   \
     } while (0)
 
