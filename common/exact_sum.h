@@ -145,17 +145,21 @@ static inline void xsum_add_array(xsum_t *s, const double *v, int n)
 }
 
 /* The sum rounded to a double (correctly, by the conversion of one 128-bit
- * integer): a function of the limbs only. */
+ * integer): a function of the limbs only. The integer counts units of
+ * 2^-88, so sums of magnitude 2^39 (5.5e11) and more wrap (far beyond the
+ * totals and loads of a lattice); it is put together unsigned, where
+ * wrapping is defined, and read as signed. */
 __extension__ typedef __int128 xsum_i128_t;
+__extension__ typedef unsigned __int128 xsum_u128_t;
 static inline double xsum_value(const xsum_t *s0)
 {
     xsum_t s = *s0;
     xsum_normalise(&s);
-    xsum_i128_t t = (xsum_i128_t)s.l[3];
+    xsum_u128_t t = (xsum_u128_t)(xsum_i128_t)s.l[3];
     for (int k = XSUM_LIMBS - 2; k >= 0; k--) {
-        t = t * ((xsum_i128_t)1 << 32) + s.l[k];
+        t = (t << 32) + (xsum_u128_t)(xsum_i128_t)s.l[k];
     }
-    return (double)t * 0x1p-88 + s.big;
+    return (double)(xsum_i128_t)t * 0x1p-88 + s.big;
 }
 
 #endif

@@ -17,6 +17,7 @@
 #include <string.h>
 
 __extension__ typedef __int128 i128_t;
+__extension__ typedef unsigned __int128 u128_t;
 
 static uint64_t rng = 88172645463325252ULL;
 static uint64_t next(void)
@@ -41,13 +42,16 @@ static void test_order_and_exact_value(void)
 {
     enum { N = 2000 };
     double v[N];
-    i128_t exact = 0;
+    /* in units of 2^-88, modulo 2^128 (unsigned: wrapping is defined; a
+     * term can reach 2^127, the sum fits): the signed value at the end */
+    u128_t wrapped = 0;
     for (int i = 0; i < N; i++) {
         int64_t m;
         int e;
         v[i] = term(&m, &e);
-        exact += (i128_t)m << e; /* in units of 2^-88 */
+        wrapped += (u128_t)(i128_t)m << e;
     }
+    const i128_t exact = (i128_t)wrapped;
     xsum_t a, b;
     xsum_zero(&a);
     xsum_zero(&b);
