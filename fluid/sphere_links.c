@@ -31,17 +31,25 @@ static inline __attribute__((always_inline)) double ray_delta(const double d[3],
     return (b < 0.0 && t > 0.0 && t <= 1.0 + 1e-12) ? fmin(t, 1.0) : 0.0;
 }
 
-/* 1 when the cell k steps back along c_q from local X is fluid (ref in *out). */
-static int fluid_at(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, int k,
-                    size_t *out)
+/* 1 when the cell k steps back along c_q from cell i at local X is fluid
+ * (its index in *out). deep: X is k or more cells inside the block on every
+ * axis, so that the cell is in the block and its index is i - k off_q, what
+ * spheres_cell would give. The scan asks this for nearly every link; the
+ * deep case without a call, a bounds test or a multiplication took 5-10%
+ * off the scan's samples (perf, dual star). */
+static inline __attribute__((always_inline)) int fluid_at(spheres_t *sp, const grid_t *g, const uint8_t *flags,
+                                                          const int X[3], int deep, size_t i, ptrdiff_t off_q, int q,
+                                                          int k, size_t *out)
 {
-    int Z[3];
-    for (int a = 0; a < 3; a++) {
-        Z[a] = X[a] - k * lb_c[q][a];
-    }
     uint8_t flag;
-    if (!spheres_cell(sp, g, flags, Z, out, &flag)) {
-        return 0;
+    if (deep) {
+        *out = (size_t)((ptrdiff_t)i - k * off_q);
+        flag = flags[*out];
+    } else {
+        const int Z[3] = {X[0] - k * lb_c[q][0], X[1] - k * lb_c[q][1], X[2] - k * lb_c[q][2]};
+        if (!spheres_cell(sp, g, flags, Z, out, &flag)) {
+            return 0;
+        }
     }
     return (flag & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
 }
@@ -277,10 +285,10 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                 if ((flags[i] & ~FLAG_FRESH) != 0) {
                     continue; /* solid or ghost */
                 }
-                int inner = 1, inner2 = 1; /* all neighbours (and theirs) inside the grid: no wrap needed */
+                int inner = 1, deep = 1; /* all neighbours (and theirs) inside the grid: no wrap needed */
                 for (int a = 0; a < 3; a++) {
                     inner = inner && Y[a] > 1 && Y[a] < g->n[a];
-                    inner2 = inner2 && Y[a] > 2 && Y[a] < g->n[a] - 1;
+                    deep = deep && Y[a] > 2 && Y[a] < g->n[a] - 1;
                 }
                 /* bit q: x_f + c_q is solid; gathered without a branch per
                  * direction (solid or not is what a predictor cannot guess) */
@@ -357,20 +365,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     l->fresh = (flags[i] & FLAG_FRESH) != 0;
                     /* written after the exchange: a cell of an outer row (fluid.c step_overlapped) */
                     l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
-                    int have_ff, have_fff;
-                    if (inner2) {
-                        /* x_f - c_q and x_f - 2 c_q in the block: their indices from i's */
-                        l->xff = (size_t)((ptrdiff_t)i - off[q]);
-                        have_ff = (flags[l->xff] & ~FLAG_FRESH) == 0;
-                        have_fff = 0;
-                        if (have_ff) {
-                            l->xfff = (size_t)((ptrdiff_t)i - 2 * off[q]);
-                            have_fff = (flags[l->xfff] & ~FLAG_FRESH) == 0;
-                        }
-                    } else {
-                        have_ff = fluid_at(sp, g, flags, Y, q, 1, &l->xff);
-                        have_fff = have_ff && fluid_at(sp, g, flags, Y, q, 2, &l->xfff);
-                    }
+                    const int have_ff = fluid_at(sp, g, flags, Y, deep, i, off[q], q, 1, &l->xff);
+                    const int have_fff = have_ff && fluid_at(sp, g, flags, Y, deep, i, off[q], q, 2, &l->xfff);
                     boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, &l->co);
                     for (int a = 0; a < 3; a++) {
                         l->rw[a] = dk[a] + delta * lb_c[q][a];
