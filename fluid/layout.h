@@ -62,7 +62,7 @@ static inline void pops_init(pops_t *p, const grid_t *g, void *data, int single,
     }
 }
 
-static inline size_t pops_post_slot(const pops_t *p, int q, size_t x)
+static inline __attribute__((always_inline)) size_t pops_post_slot(const pops_t *p, int q, size_t x)
 {
     switch (p->state) {
     case LAYOUT_SWAPPED:
@@ -89,7 +89,7 @@ static inline size_t pops_in_slot(const pops_t *p, int q, size_t x)
 }
 
 /* The value of a slot of direction q (or of its opposite: same weight). */
-static inline double pops_read(const pops_t *p, int q, size_t slot)
+static inline __attribute__((always_inline)) double pops_read(const pops_t *p, int q, size_t slot)
 {
     return p->h != NULL ? (double)p->h[slot] + lb_w[q] : p->f[slot];
 }
@@ -113,7 +113,10 @@ static inline void pops_copy(const pops_t *p, size_t dst, size_t src)
     }
 }
 
-static inline double pops_post(const pops_t *p, int q, size_t x) { return pops_read(p, q, pops_post_slot(p, q, x)); }
+static inline __attribute__((always_inline)) double pops_post(const pops_t *p, int q, size_t x)
+{
+    return pops_read(p, q, pops_post_slot(p, q, x));
+}
 
 /* Asks for the cache line of a slot ahead of its use (write: to store to
  * it), where the hardware prefetcher cannot guess the address. */
@@ -169,7 +172,7 @@ static inline __attribute__((always_inline)) pops_t pops_fixed(const pops_t *p, 
 }
 
 /* Density and momentum of the post-collision populations of cell x. */
-static inline double pops_moments(const pops_t *p, size_t x, double j[3])
+static inline __attribute__((always_inline)) double pops_moments(const pops_t *p, size_t x, double j[3])
 {
     double rho = 0.0;
     j[0] = j[1] = j[2] = 0.0;

@@ -77,15 +77,8 @@ static inline __attribute__((always_inline)) void span_moments(const pops_t *pl,
         __builtin_memcpy(jz + x, &c, sizeof c);
     }
     for (; x < n; x++) {
-        double r = 0.0, j[3] = {0.0, 0.0, 0.0};
-        for (int q = 0; q < LB_Q; q++) {
-            const double v = pl->h != NULL ? (double)pl->h[s0[q] + (size_t)x] + lb_w[q] : pl->f[s0[q] + (size_t)x];
-            r += v;
-            j[0] += lb_c[q][0] * v;
-            j[1] += lb_c[q][1] * v;
-            j[2] += lb_c[q][2] * v;
-        }
-        rho[x] = r;
+        double j[3];
+        rho[x] = pops_moments(pl, first + (size_t)x, j);
         jx[x] = j[0];
         jy[x] = j[1];
         jz[x] = j[2];
@@ -111,9 +104,7 @@ static inline __attribute__((always_inline)) void row_in_trouble(const fluid_t *
         const double r = rho[x];
         double u[3];
         const double j[3] = {jx[x], jy[x], jz[x]};
-        for (int a = 0; a < 3; a++) {
-            u[a] = (j[a] - 0.5 * fl->kp.force[a]) / r;
-        }
+        fluid_post_velocity(fl, r, j, u);
         if (totals) {
             const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
             jx[x] = r * u[0];
