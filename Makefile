@@ -137,13 +137,15 @@ drag-report: deps
 	$(BUILD)/sphere_report drag $(BUILD)/report $(DRAG_ARGS)
 
 # FMUs: the same sources built again with hidden visibility, so that a
-# shared library exports the fmi2* entry points only; common/fmi_adapter.c
-# is compiled once per model (-DFMI_MODEL). The fluid links Open MPI and the
+# shared library exports the fmi2* entry points only; of the generic FMI
+# layer (common/fmi_internal.h) common/fmi_adapter.c is compiled once per
+# model (-DFMI_MODEL), the rest once.
+FMI_SRC       := common/fmi_instance.c common/fmi_values.c common/fmi_state.c The fluid links Open MPI and the
 # parallel HDF5 for its field snapshots (common/h5fields.c); it uses MPI only
 # when its master has initialised it (fluid/decomp.c).
-FMU_FLUID_SRC := $(COMMON_SRC) common/fmi_vars.c common/h5fields.c \
+FMU_FLUID_SRC := $(COMMON_SRC) common/fmi_vars.c $(FMI_SRC) common/h5fields.c \
                  $(filter-out fluid/kernel.c fluid/kernel_single.c fluid/scan.c,$(FLUID_SRC)) fluid/kernel_dispatch.c fluid/fluid_fmi.c
-FMU_RIGID_SRC := $(COMMON_SRC) common/fmi_vars.c $(RIGID_SRC) rigid/rigid_fmi.c
+FMU_RIGID_SRC := $(COMMON_SRC) common/fmi_vars.c $(FMI_SRC) $(RIGID_SRC) rigid/rigid_fmi.c
 # FMUs travel to other machines: the x86-64 baseline (SSE2) instead of
 # -march=native (the kernel is memory-bound; see README "FMUs").
 FMU_ARCH      := $(if $(filter x86_64,$(shell uname -m)),-march=x86-64 -mtune=generic,)

@@ -1,8 +1,9 @@
 /* fmi_adapter.h — the contract between the generic FMI 2.0 layer and a model.
  *
- * One generic file (fmi_adapter.c) implements every fmi2* entry point: call
- * order (a legal-state bit mask per function), argument checks, logging
- * through the FMI logger, the value store, FMU state and its serialisation.
+ * One generic layer (fmi_adapter.c and the files fmi_internal.h lists)
+ * implements every fmi2* entry point: call order (a legal-state bit mask per
+ * function), argument checks, logging through the FMI logger, the value
+ * store, FMU state and its serialisation.
  * A model (fluid/fluid_fmi.c, rigid/rigid_fmi.c) only describes its variables
  * for a scene and maps them to its native API through the fmi_model_t table
  * below. The same description generates modelDescription.xml (coupler/export.c),

@@ -1,6 +1,7 @@
 /* fluid_fmi.c — the fluid component as an FMI 2.0 Co-Simulation FMU: the
  * mapping between value references and the native API (fluid.h). The FMI
- * entry points, call-order checks and logging are common/fmi_adapter.c.
+ * entry points, call-order checks and logging are the generic layer's
+ * (common/fmi_adapter.c, common/fmi_internal.h).
  *
  * Variables (SI, structured names, global sphere index i: bodies in scene
  * order, their spheres in order):

@@ -1,7 +1,8 @@
 /* rigid_fmi.c — the rigid component as an FMI 2.0 Co-Simulation FMU: the
  * mapping between value references and the native API (rigid.h). The scene
  * -> rigid_config_t translation is rigid_config_from_scene (rigid_scene.c);
- * the FMI entry points, call-order checks and logging are common/fmi_adapter.c.
+ * the FMI entry points, call-order checks and logging are the generic layer's
+ * (common/fmi_adapter.c, common/fmi_internal.h).
  *
  * What the FMU covers: the rigid component is built from every body of the
  * scene; fixed and prescribed bodies enter as fixed bodies (obstacles for

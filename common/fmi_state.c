@@ -1,0 +1,224 @@
+/* fmi_state.c — FMU state of the generic FMI layer (fmi_internal.h): one
+ * self-contained byte blob (header, values, native state), so that
+ * get/set and serialise/deserialise share one format. */
+#include "fmi_internal.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------------------ */
+/* FMU state: header | values (nvars doubles) | native state.               */
+
+typedef struct {
+    char magic[8];
+    char model[16];
+    char guid[40];
+    uint64_t nvars, comp_size;
+    int32_t state, has_comp, has_stop, pad;
+    double t, t_start, t_stop;
+} state_header_t;
+
+static fmi2Status save_state(inst_t *in, const char *fn, fmu_state_t **out)
+{
+    state_header_t h;
+    memset(&h, 0, sizeof h);
+    memcpy(h.magic, STATE_MAGIC, sizeof h.magic);
+    snprintf(h.model, sizeof h.model, "%s", in->model->identifier);
+    memcpy(h.guid, in->guid, sizeof in->guid);
+    h.nvars = (uint64_t)in->vars.n;
+    h.comp_size = in->comp != NULL ? (uint64_t)in->model->state_size(in->comp) : 0u;
+    h.state = in->state;
+    h.has_comp = in->comp != NULL;
+    h.has_stop = in->has_stop;
+    h.t = in->t;
+    h.t_start = in->t_start;
+    h.t_stop = in->t_stop;
+    const size_t nval = (size_t)in->vars.n * sizeof(double);
+    const size_t size = sizeof h + 2 * nval + (size_t)h.comp_size;
+    fmu_state_t *s = malloc(sizeof *s + size);
+    if (s == NULL) {
+        return fmi_fail(in, fn, "out of memory for an FMU state of %zu bytes", size);
+    }
+    s->size = size;
+    memcpy(s->bytes, &h, sizeof h);
+    memcpy(s->bytes + sizeof h, in->values, nval);
+    memcpy(s->bytes + sizeof h + nval, in->made_with, nval);
+    if (in->comp != NULL) {
+        status_t st = in->model->state_save(in->comp, s->bytes + sizeof h + 2 * nval, (size_t)h.comp_size);
+        if (st >= STATUS_ERROR) {
+            free(s);
+            return fmi_report(in, st, fn, "the %s component could not save its state", in->model->identifier);
+        }
+    }
+    *out = s;
+    return fmi2OK;
+}
+
+/* Checks that a blob was made by an FMU of this model and scene. */
+static fmi2Status check_blob(const inst_t *in, const char *fn, const unsigned char *bytes, size_t size,
+                             state_header_t *h)
+{
+    if (size < sizeof *h) {
+        return fmi_fail(in, fn, "the FMU state has %zu bytes, fewer than its header (%zu)", size, sizeof *h);
+    }
+    memcpy(h, bytes, sizeof *h);
+    if (memcmp(h->magic, STATE_MAGIC, sizeof h->magic) != 0) {
+        return fmi_fail(in, fn, "not an FMU state of this project (bad magic)");
+    }
+    h->model[sizeof h->model - 1] = '\0';
+    h->guid[sizeof h->guid - 1] = '\0';
+    if (strcmp(h->model, in->model->identifier) != 0 || strcmp(h->guid, in->guid) != 0) {
+        return fmi_fail(in, fn, "the FMU state belongs to model %s with GUID %s; this is %s with GUID %s", h->model,
+                        h->guid, in->model->identifier, in->guid);
+    }
+    const size_t nval = (size_t)in->vars.n * sizeof(double);
+    if (h->nvars != (uint64_t)in->vars.n || size != sizeof *h + 2 * nval + h->comp_size ||
+        (h->has_comp == 0) != (h->comp_size == 0) || h->state <= 0 || h->state >= (1 << NSTATES) ||
+        (h->state & (h->state - 1)) != 0) {
+        return fmi_fail(in, fn, "the FMU state is inconsistent (%zu bytes, %llu variables, component %llu bytes)", size,
+                        (unsigned long long)h->nvars, (unsigned long long)h->comp_size);
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
+{
+    const char *fn = "fmi2GetFMUstate";
+    BEGIN(fn, M_FMU_STATE);
+    if (FMUstate == NULL) {
+        return fmi_fail(in, fn, "FMUstate is NULL");
+    }
+    fmi_trace(in, fn, "t=%.17g", in->t);
+    fmu_state_t *s = NULL;
+    fmi2Status st = save_state(in, fn, &s);
+    if (st >= fmi2Error) {
+        return st;
+    }
+    free(*FMUstate); /* a previous state handed in for reuse */
+    *FMUstate = s;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
+{
+    const char *fn = "fmi2SetFMUstate";
+    BEGIN(fn, M_FMU_STATE);
+    const fmu_state_t *s = FMUstate;
+    state_header_t h;
+    if (s == NULL) {
+        return fmi_fail(in, fn, "FMUstate is NULL");
+    }
+    if (check_blob(in, fn, s->bytes, s->size, &h) != fmi2OK) {
+        return fmi2Error;
+    }
+    fmi_trace(in, fn, "t=%.17g", h.t);
+    const size_t nval = (size_t)in->vars.n * sizeof(double);
+    const double *made_with = (const double *)(const void *)(s->bytes + sizeof h + nval);
+    /* a component made with other parameters cannot take the native state */
+    int same = in->comp != NULL && h.has_comp;
+    for (int j = 0; same && j < in->vars.n; j++) {
+        if (in->vars.v[j].causality == FMI_PARAMETER && memcmp(&in->made_with[j], &made_with[j], sizeof(double))) {
+            same = 0;
+        }
+    }
+    if (!same) {
+        fmi_drop_component(in);
+    }
+    memcpy(in->values, s->bytes + sizeof h, nval);
+    in->t = h.t;
+    in->t_start = h.t_start;
+    /* the stop time stays this instance's own (fmi2SetupExperiment): a
+     * restart may run longer than the run that saved the state */
+    if (h.has_comp) {
+        if (in->comp == NULL) {
+            /* re-create with the parameters the state was made with */
+            double *keep = malloc(nval + sizeof(double));
+            if (keep == NULL) {
+                in->state = S_ERROR;
+                return fmi_fail(in, fn, "out of memory for a copy of the values (%zu bytes)", nval + sizeof(double));
+            }
+            memcpy(keep, in->values, nval);
+            memcpy(in->values, made_with, nval);
+            status_t st = fmi_ensure_component(in, fn);
+            memcpy(in->values, keep, nval);
+            free(keep);
+            if (st >= STATUS_ERROR) {
+                in->state = st == STATUS_FATAL ? S_FATAL : S_ERROR;
+                return (fmi2Status)st;
+            }
+        }
+        status_t st = in->model->state_restore(in->comp, s->bytes + sizeof h + 2 * nval, (size_t)h.comp_size);
+        if (st >= STATUS_ERROR) {
+            in->state = st == STATUS_FATAL ? S_FATAL : S_ERROR;
+            return fmi_report(in, st, fn, "the %s component could not restore the state", in->model->identifier);
+        }
+        memcpy(in->made_with, made_with, nval);
+        in->model->outputs(in->comp, &in->vars, in->values);
+        in->lazy_stale = 1;
+    }
+    in->state = h.state;
+    return fmi2OK;
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
+{
+    BEGIN("fmi2FreeFMUstate", M_FMU_STATE);
+    fmi_trace(in, "fmi2FreeFMUstate", "%s", "");
+    if (FMUstate == NULL) {
+        return fmi_fail(in, "fmi2FreeFMUstate", "FMUstate is NULL");
+    }
+    free(*FMUstate);
+    *FMUstate = NULL;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size)
+{
+    BEGIN("fmi2SerializedFMUstateSize", M_FMU_STATE);
+    if (FMUstate == NULL || size == NULL) {
+        return fmi_fail(in, "fmi2SerializedFMUstateSize", "%s is NULL", FMUstate == NULL ? "FMUstate" : "size");
+    }
+    *size = ((const fmu_state_t *)FMUstate)->size;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[], size_t size)
+{
+    const char *fn = "fmi2SerializeFMUstate";
+    BEGIN(fn, M_FMU_STATE);
+    const fmu_state_t *s = FMUstate;
+    if (s == NULL || serializedState == NULL) {
+        return fmi_fail(in, fn, "%s is NULL", s == NULL ? "FMUstate" : "serializedState");
+    }
+    if (size != s->size) {
+        return fmi_fail(in, fn, "size = %zu; allowed: %zu, as fmi2SerializedFMUstateSize gives", size, s->size);
+    }
+    memcpy(serializedState, s->bytes, s->size);
+    return fmi2OK;
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
+                                   fmi2FMUstate *FMUstate)
+{
+    const char *fn = "fmi2DeSerializeFMUstate";
+    BEGIN(fn, M_FMU_STATE);
+    state_header_t h;
+    if (serializedState == NULL || FMUstate == NULL) {
+        return fmi_fail(in, fn, "%s is NULL", serializedState == NULL ? "serializedState" : "FMUstate");
+    }
+    if (check_blob(in, fn, (const unsigned char *)serializedState, size, &h) != fmi2OK) {
+        return fmi2Error;
+    }
+    fmu_state_t *s = malloc(sizeof *s + size);
+    if (s == NULL) {
+        return fmi_fail(in, fn, "out of memory for an FMU state of %zu bytes", size);
+    }
+    s->size = size;
+    memcpy(s->bytes, serializedState, size);
+    free(*FMUstate);
+    *FMUstate = s;
+    return fmi2OK;
+}
