@@ -37,7 +37,7 @@ FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/lattice.c fluid/kernel.c
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
                rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \
                rigid/rigid_scene.c rigid/pairs.c rigid/lubrication.c rigid/contact_watch.c
-COUPLER_SRC := coupler/main.c coupler/mpi_env.c coupler/check_ranks.c coupler/bench.c coupler/run.c coupler/fmu.c coupler/output.c coupler/export.c coupler/checkpoint.c coupler/summary.c coupler/resources.c \
+COUPLER_SRC := coupler/main.c coupler/mpi_env.c coupler/check_ranks.c coupler/bench.c coupler/run.c coupler/signals.c coupler/run_checkpoint.c coupler/fmu.c coupler/output.c coupler/export.c coupler/checkpoint.c coupler/summary.c coupler/resources.c \
                common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_boundary.c tests/fluid/test_kernel.c tests/fluid/test_layouts.c \
                tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/drag_report.c tests/fluid/test_spheres.c \

@@ -22,8 +22,11 @@
  * Under mpirun every rank runs this loop with its own FMUs (the fluid's
  * block of the grid, the same rigid): they take every decision alike, agree
  * once per communication step on a stop signal that some rank has seen, and
- * write each checkpoint together (save_checkpoint: rank 0 writes the file
- * with every rank's block, and all learn the outcome). */
+ * write each checkpoint together (run_checkpoint.c: rank 0 writes the file
+ * with every rank's block, and all learn the outcome).
+ *
+ * This file: setup and the loop; the signals and the step are signals.c's,
+ * checkpoints run_checkpoint.c's (master.h). */
 #define _XOPEN_SOURCE 700 /* nftw, mkdtemp */
 #include "run.h"
 #include "mpi_env.h"
@@ -34,6 +37,7 @@
 #include "checkpoint.h"
 #include "export.h"
 #include "fmu.h"
+#include "master.h"
 #include "output.h"
 #include "resources.h"
 #include "summary.h"
@@ -50,49 +54,6 @@
 #include <unistd.h>
 
 #define CAT "run"
-#define PI 3.14159265358979323846
-
-/* Quantities of one output row, in the order of the row buffer. */
-enum { R_POS, R_VEL, R_OMEGA, R_FORCE, R_TORQUE, NSPHERE_Q };
-static const char *const SPHERE_Q[NSPHERE_Q] = {"position", "velocity", "angular_velocity", "force", "torque"};
-static const char *const AXIS = "xyz";
-
-/* Values read from one FMU in one call: vr[k] goes to row[dest[k]]. */
-typedef struct {
-    unsigned *vr;
-    int *dest;
-    int n;
-    double *tmp;
-    int *itmp;
-} gather_t;
-
-typedef struct {
-    const scene_t *scene;
-    const run_options_t *opt;
-    log_t log;
-    units_t un;
-    int ns, nc, nfree_bodies;
-    fmu_t *fluid, *rigid;
-    FILE *calls;
-    char tmp[4096];   /* temporary folder, "" when none */
-    char fields[4096]; /* field file, "" when none */
-    /* exchange: rigid outputs -> fluid inputs, fluid outputs -> rigid inputs */
-    unsigned *to_fluid_src, *to_fluid_dst, *to_rigid_src, *to_rigid_dst;
-    int nto_fluid, nto_rigid;
-    double *xbuf;
-    /* observation: the row buffer and what fills it */
-    double *row;  /* 5 * ns * 3 + 2 * nc * 3 + 8 doubles */
-    int *ibody, *iintact;
-    int o_cforce, o_ctorque, o_mass, o_mom, o_ke, o_vmax, o_peak, o_bmom, o_bang, nrow;
-    gather_t real_fluid, real_rigid, int_rigid, bool_rigid;
-    /* settling summary: the velocity along gravity of the one free sphere */
-    double *settle_t, *settle_v;
-    long nsettle;
-    /* checkpoints: what they belong to, where they go */
-    checkpoint_origin_t origin;
-    checkpoint_ranks_t ranks; /* the MPI ranks and their blocks (fluid/decomp.h) */
-    char cp_path[4200];
-} master_t;
 
 /* The signal that asked the run to stop (SIGINT, SIGTERM), 0 for none. The
  * one process-wide variable of the master: a signal handler can reach no
@@ -126,292 +87,6 @@ static int nfree_bodies(const scene_t *s)
     }
     return n;
 }
-
-static int same_unit(const char *a, const char *b)
-{
-    return (a == NULL && b == NULL) || (a != NULL && b != NULL && strcmp(a, b) == 0);
-}
-
-static const char *type_text(fmu_type_t t)
-{
-    return t == FMU_REAL ? "Real" : t == FMU_INTEGER ? "Integer" : t == FMU_BOOLEAN ? "Boolean" : "String";
-}
-
-/* Every input of `to` gets the output of `from` with the same name. */
-static status_t connect(master_t *m, fmu_t *from, fmu_t *to, unsigned **src, unsigned **dst, int *n)
-{
-    const int nv = fmu_nvars(to);
-    *src = calloc((size_t)nv + 1, sizeof **src);
-    *dst = calloc((size_t)nv + 1, sizeof **dst);
-    if (*src == NULL || *dst == NULL) {
-        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the signal map of %d variables (%zu bytes)", nv, 2 * ((size_t)nv + 1) * sizeof **src);
-    }
-    status_t st = STATUS_OK;
-    for (int j = 0; j < nv; j++) {
-        const fmu_var_t *in = fmu_var(to, j);
-        if (in->causality != FMU_INPUT) {
-            continue;
-        }
-        const fmu_var_t *out = from != NULL ? fmu_find(from, in->name) : NULL;
-        if (out == NULL || out->causality != FMU_OUTPUT) {
-            st = log_msg(&m->log, STATUS_ERROR, CAT, "signal mismatch: input %s of %s has no output of that name in %s",
-                         in->name, fmu_label(to), from != NULL ? fmu_label(from) : "any FMU (the scene has no rigid.fmu)");
-            continue;
-        }
-        if (out->type != in->type || in->type != FMU_REAL || !same_unit(in->unit, out->unit)) {
-            st = log_msg(&m->log, STATUS_ERROR, CAT,
-                         "signal mismatch: %s is %s [%s] in %s but %s [%s] in %s", in->name, type_text(in->type),
-                         in->unit != NULL ? in->unit : "no unit", fmu_label(to), type_text(out->type),
-                         out->unit != NULL ? out->unit : "no unit", fmu_label(from));
-            continue;
-        }
-        (*src)[*n] = out->vr;
-        (*dst)[*n] = in->vr;
-        (*n)++;
-    }
-    return st;
-}
-
-static status_t gather_add(master_t *m, gather_t *g, unsigned vr, int dest)
-{
-    if (g->n % 64 == 0) {
-        unsigned *v = realloc(g->vr, sizeof *v * (size_t)(g->n + 64));
-        int *d = v != NULL ? realloc(g->dest, sizeof *d * (size_t)(g->n + 64)) : NULL;
-        if (v != NULL) {
-            g->vr = v;
-        }
-        if (d == NULL) {
-            return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the observed outputs (%zu bytes)", ((size_t)g->n + 1) * (sizeof(int) + sizeof(unsigned)));
-        }
-        g->dest = d;
-    }
-    g->vr[g->n] = vr;
-    g->dest[g->n] = dest;
-    g->n++;
-    return STATUS_OK;
-}
-
-/* Finds an output by name in the fluid or the rigid FMU. */
-static status_t observe(master_t *m, const char *name, fmu_type_t type, int dest, int required)
-{
-    fmu_t *owners[2] = {m->fluid, m->rigid};
-    for (int k = 0; k < 2; k++) {
-        const fmu_var_t *v = owners[k] != NULL ? fmu_find(owners[k], name) : NULL;
-        if (v == NULL || v->causality != FMU_OUTPUT) {
-            continue;
-        }
-        if (v->type != type) {
-            return log_msg(&m->log, STATUS_ERROR, CAT, "%s of %s is %s; the master expects %s", name,
-                           fmu_label(owners[k]), type_text(v->type), type_text(type));
-        }
-        gather_t *g = type == FMU_REAL      ? (k == 0 ? &m->real_fluid : &m->real_rigid)
-                      : type == FMU_INTEGER ? &m->int_rigid
-                                            : &m->bool_rigid;
-        if (type != FMU_REAL && k == 0) {
-            return log_msg(&m->log, STATUS_ERROR, CAT, "%s: the master reads it from rigid.fmu only", name);
-        }
-        return gather_add(m, g, v->vr, dest);
-    }
-    if (!required) {
-        return STATUS_DISCARD;
-    }
-    return log_msg(&m->log, STATUS_ERROR, CAT, "no FMU publishes the output %s that the output file needs", name);
-}
-
-static status_t plan_observation(master_t *m)
-{
-    const int ns = m->ns, nc = m->nc;
-    m->o_cforce = NSPHERE_Q * 3 * ns;
-    m->o_ctorque = m->o_cforce + 3 * nc;
-    m->o_mass = m->o_ctorque + 3 * nc;
-    m->o_mom = m->o_mass + 1;
-    m->o_ke = m->o_mom + 3;
-    m->o_vmax = m->o_ke + 1;
-    m->o_peak = m->o_vmax + 1;
-    m->o_bmom = m->o_peak + 3;
-    m->o_bang = m->o_bmom + 3;
-    m->nrow = m->o_bang + 3;
-    m->row = calloc((size_t)m->nrow, sizeof(double));
-    m->ibody = calloc((size_t)ns + 1, sizeof(int)); /* [ns]: the number of moving bodies */
-    m->iintact = calloc((size_t)nc + 1, sizeof(int));
-    if (m->row == NULL || m->ibody == NULL || m->iintact == NULL) {
-        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the output row (%zu bytes)", (size_t)m->nrow * sizeof(double) + ((size_t)ns + (size_t)nc + 2) * sizeof(int));
-    }
-    status_t st = STATUS_OK;
-    char name[128];
-    for (int i = 0; i < ns && st == STATUS_OK; i++) {
-        for (int q = 0; q < NSPHERE_Q && st == STATUS_OK; q++) {
-            for (int a = 0; a < 3 && st == STATUS_OK; a++) {
-                /* the load: what acted over the step (rigid.fmu's applied
-                 * load under the implicit coupling), else the fluid's */
-                if (q == R_FORCE || q == R_TORQUE) {
-                    snprintf(name, sizeof name, "sphere[%d].applied_%s.%c", i, SPHERE_Q[q], AXIS[a]);
-                    st = observe(m, name, FMU_REAL, q * 3 * ns + 3 * i + a, 0);
-                    if (st != STATUS_DISCARD) {
-                        continue;
-                    }
-                }
-                snprintf(name, sizeof name, "sphere[%d].%s.%c", i, SPHERE_Q[q], AXIS[a]);
-                st = observe(m, name, FMU_REAL, q * 3 * ns + 3 * i + a, 1);
-            }
-        }
-    }
-    /* body ids: the rigid publishes them for its spheres; the others keep
-     * their scene body index */
-    for (int b = 0, i = 0; b < m->scene->nbodies && st == STATUS_OK; b++) {
-        for (int k = 0; k < m->scene->bodies[b].nspheres && st == STATUS_OK; k++, i++) {
-            m->ibody[i] = b;
-            snprintf(name, sizeof name, "sphere[%d].body", i);
-            st = observe(m, name, FMU_INTEGER, i, 0);
-            st = st == STATUS_DISCARD ? STATUS_OK : st;
-        }
-    }
-    for (int k = 0; k < nc && st == STATUS_OK; k++) {
-        for (int a = 0; a < 3 && st == STATUS_OK; a++) {
-            snprintf(name, sizeof name, "connection[%d].force.%c", k, AXIS[a]);
-            st = observe(m, name, FMU_REAL, m->o_cforce + 3 * k + a, 1);
-            snprintf(name, sizeof name, "connection[%d].torque.%c", k, AXIS[a]);
-            st = status_worst(st, observe(m, name, FMU_REAL, m->o_ctorque + 3 * k + a, 1));
-        }
-        snprintf(name, sizeof name, "connection[%d].intact", k);
-        st = status_worst(st, observe(m, name, FMU_BOOLEAN, k, 1));
-    }
-    static const struct {
-        const char *name;
-        int vector;
-    } diag[] = {{"fluid.mass", 0}, {"fluid.momentum", 1}, {"fluid.kinetic_energy", 0}, {"fluid.max_speed", 0},
-                {"fluid.peak_velocity", 1}};
-    const int offs[] = {m->o_mass, m->o_mom, m->o_ke, m->o_vmax, m->o_peak};
-    for (int d = 0; d < 5 && st == STATUS_OK; d++) {
-        for (int a = 0; a < (diag[d].vector ? 3 : 1) && st == STATUS_OK; a++) {
-            if (diag[d].vector) {
-                snprintf(name, sizeof name, "%s.%c", diag[d].name, AXIS[a]);
-            } else {
-                snprintf(name, sizeof name, "%s", diag[d].name);
-            }
-            st = observe(m, name, FMU_REAL, offs[d] + a, 1);
-        }
-    }
-    /* the rigid component's totals over its moving bodies (balances of
-     * break-up and sticking) */
-    for (int a = 0; a < 3 && st == STATUS_OK && m->rigid != NULL; a++) {
-        snprintf(name, sizeof name, "rigid.momentum.%c", AXIS[a]);
-        st = observe(m, name, FMU_REAL, m->o_bmom + a, 1);
-        snprintf(name, sizeof name, "rigid.angular_momentum.%c", AXIS[a]);
-        st = status_worst(st, observe(m, name, FMU_REAL, m->o_bang + a, 1));
-    }
-    if (st == STATUS_OK && m->rigid != NULL) {
-        st = observe(m, "rigid.bodies", FMU_INTEGER, ns, 1);
-    }
-    gather_t *gs[4] = {&m->real_fluid, &m->real_rigid, &m->int_rigid, &m->bool_rigid};
-    for (int k = 0; k < 4 && st == STATUS_OK; k++) {
-        gs[k]->tmp = calloc((size_t)gs[k]->n + 1, sizeof(double));
-        gs[k]->itmp = calloc((size_t)gs[k]->n + 1, sizeof(int));
-        if (gs[k]->tmp == NULL || gs[k]->itmp == NULL) {
-            st = log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the read buffers (%zu bytes)", ((size_t)gs[k]->n + 1) * (sizeof(double) + sizeof(int)));
-        }
-    }
-    return st;
-}
-
-/* Reads every observed output into the row buffer. */
-static status_t read_row(master_t *m)
-{
-    status_t st = STATUS_OK;
-    gather_t *g = &m->real_fluid;
-    if (g->n > 0 && (st = fmu_get_real(m->fluid, g->vr, (size_t)g->n, g->tmp)) >= STATUS_ERROR) {
-        return st;
-    }
-    for (int k = 0; k < g->n; k++) {
-        m->row[g->dest[k]] = g->tmp[k];
-    }
-    if (m->rigid == NULL) {
-        return st;
-    }
-    g = &m->real_rigid;
-    if (g->n > 0 && (st = fmu_get_real(m->rigid, g->vr, (size_t)g->n, g->tmp)) >= STATUS_ERROR) {
-        return st;
-    }
-    for (int k = 0; k < g->n; k++) {
-        m->row[g->dest[k]] = g->tmp[k];
-    }
-    g = &m->int_rigid;
-    if (g->n > 0 && (st = fmu_get_integer(m->rigid, g->vr, (size_t)g->n, g->itmp)) >= STATUS_ERROR) {
-        return st;
-    }
-    for (int k = 0; k < g->n; k++) {
-        m->ibody[g->dest[k]] = g->itmp[k];
-    }
-    g = &m->bool_rigid;
-    if (g->n > 0 && (st = fmu_get_boolean(m->rigid, g->vr, (size_t)g->n, g->itmp)) >= STATUS_ERROR) {
-        return st;
-    }
-    for (int k = 0; k < g->n; k++) {
-        m->iintact[g->dest[k]] = g->itmp[k] != 0;
-    }
-    return st;
-}
-
-static status_t write_row(master_t *m, output_t *out, double t)
-{
-    const int ns = m->ns;
-    const double *r = m->row;
-    output_row_t row = {
-        .time = t,
-        .position = r + R_POS * 3 * ns,
-        .velocity = r + R_VEL * 3 * ns,
-        .angular_velocity = r + R_OMEGA * 3 * ns,
-        .force = r + R_FORCE * 3 * ns,
-        .torque = r + R_TORQUE * 3 * ns,
-        .body = m->ibody,
-        .conn_force = r + m->o_cforce,
-        .conn_torque = r + m->o_ctorque,
-        .intact = m->iintact,
-        .mass = r[m->o_mass],
-        .momentum = {r[m->o_mom], r[m->o_mom + 1], r[m->o_mom + 2]},
-        .kinetic_energy = r[m->o_ke],
-        .nbodies = m->ibody[m->ns],
-        .body_momentum = r + m->o_bmom,
-        .body_angular_momentum = r + m->o_bang,
-    };
-    return output_row(out, &row);
-}
-
-/* ------------------------------------------------------------------------ */
-/* Stepping                                                                  */
-
-static status_t exchange(master_t *m, fmu_t *from, fmu_t *to, const unsigned *src, const unsigned *dst, int n)
-{
-    if (n == 0) {
-        return STATUS_OK;
-    }
-    status_t st = fmu_get_real(from, src, (size_t)n, m->xbuf);
-    return st >= STATUS_ERROR ? st : status_worst(st, fmu_set_real(to, dst, (size_t)n, m->xbuf));
-}
-
-/* One communication step from t: the sequential scheme. */
-static status_t cosim_step(master_t *m, double t, double h)
-{
-    status_t st = STATUS_OK;
-    if (m->rigid != NULL && (st = exchange(m, m->rigid, m->fluid, m->to_fluid_src, m->to_fluid_dst,
-                                           m->nto_fluid)) >= STATUS_ERROR) {
-        return st;
-    }
-    if ((st = status_worst(st, fmu_do_step(m->fluid, t, h))) >= STATUS_ERROR) {
-        return st;
-    }
-    if (m->rigid == NULL) {
-        return st;
-    }
-    if ((st = status_worst(st, exchange(m, m->fluid, m->rigid, m->to_rigid_src, m->to_rigid_dst, m->nto_rigid))) >=
-        STATUS_ERROR) {
-        return st;
-    }
-    return status_worst(st, fmu_do_step(m->rigid, t, h));
-}
-
-/* ------------------------------------------------------------------------ */
-/* Summary                                                                   */
 
 /* ------------------------------------------------------------------------ */
 /* The run                                                                   */
@@ -532,219 +207,6 @@ static void free_master(master_t *m)
     free(m->settle_t);
     free(m->settle_v);
 }
-
-/* ------------------------------------------------------------------------ */
-/* Checkpoint and restart                                                    */
-
-/* What this run's checkpoints belong to: the coupler binary, each FMU's GUID
- * and library. */
-static status_t find_origin(master_t *m)
-{
-    char exe[4096], lib[4400], hash[17];
-    const ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (len <= 0) {
-        return log_msg(&m->log, STATUS_ERROR, CAT, "cannot find the coupler executable (/proc/self/exe): %s",
-                       strerror(errno));
-    }
-    exe[len] = '\0';
-    if (checkpoint_file_hash(exe, &m->log, hash) != STATUS_OK) {
-        return STATUS_ERROR;
-    }
-    snprintf(m->origin.coupler, sizeof m->origin.coupler, "build %s", hash);
-    fmu_t *f[2] = {m->fluid, m->rigid};
-    char *dst[2] = {m->origin.fluid, m->origin.rigid};
-    for (int k = 0; k < 2; k++) {
-        if (f[k] == NULL) {
-            continue;
-        }
-        fmu_library_path(f[k], lib, sizeof lib);
-        if (checkpoint_file_hash(lib, &m->log, hash) != STATUS_OK) {
-            return STATUS_ERROR;
-        }
-        snprintf(dst[k], CHECKPOINT_ID_MAX, "GUID %s, library %s", fmu_guid(f[k]), hash);
-    }
-    return STATUS_OK;
-}
-
-/* The serialized state of one FMU. */
-static status_t serialize(fmu_t *f, unsigned char **bytes, size_t *size)
-{
-    void *state = NULL;
-    status_t st = fmu_get_state(f, &state);
-    if (st < STATUS_ERROR) {
-        st = status_worst(st, fmu_serialize_state(f, state, bytes, size));
-    }
-    if (state != NULL) {
-        st = status_worst(st, fmu_free_state(f, &state));
-    }
-    return st;
-}
-
-static status_t deserialize(fmu_t *f, const unsigned char *bytes, size_t size)
-{
-    void *state = NULL;
-    status_t st = fmu_deserialize_state(f, bytes, size, &state);
-    if (st < STATUS_ERROR) {
-        st = status_worst(st, fmu_set_state(f, state));
-    }
-    if (state != NULL) {
-        st = status_worst(st, fmu_free_state(f, &state));
-    }
-    return st;
-}
-
-/* Position of the run at a communication point, for a checkpoint. */
-typedef struct {
-    long n, nsteps, next_out;
-    int k_lbm;
-    double h, wall0, wall_before[3];
-} run_point_t;
-
-/* The worst status of all ranks: every rank takes the same branch after it. */
-static status_t agree(master_t *m, status_t st)
-{
-    int v = (int)st;
-    const status_t mst = mpi_env_max(&v, &m->log);
-    return status_worst((status_t)v, mst);
-}
-
-/* Rank 0's side of a checkpoint on several ranks (checkpoint_hooks_t): the
- * other ranks' fluid blocks, received one after another into one buffer. */
-typedef struct {
-    master_t *m;
-    output_t *out;
-    const size_t *sizes; /* every rank's block, bytes */
-    unsigned char *buf;  /* as large as the largest of the other ranks */
-} blocks_t;
-
-static status_t receive_block(void *ctx, int rank, const unsigned char **bytes, size_t *size)
-{
-    blocks_t *b = ctx;
-    *bytes = b->buf;
-    *size = b->sizes[rank];
-    return mpi_env_recv(b->buf, b->sizes[rank], rank, &b->m->log);
-}
-
-static status_t copy_rows(void *ctx, const char *tmp_path)
-{
-    return output_save_rows(((blocks_t *)ctx)->out, tmp_path, "/output");
-}
-
-/* Every rank calls it at the same communication step (the steps are due
- * alike and a stop is agreed, run_scene): each serializes its fluid block,
- * rank 0 writes them all with the rest into the one file, and every rank
- * returns the outcome of the whole. */
-static status_t save_checkpoint(master_t *m, output_t *out, const run_point_t *p)
-{
-    const int rank = mpi_env_rank(), size = mpi_env_size();
-    checkpoint_t c;
-    memset(&c, 0, sizeof c);
-    size_t *sizes = NULL;
-    blocks_t b = {m, out, NULL, NULL};
-    status_t st = output_flush(out);
-    if (st < STATUS_ERROR) {
-        st = status_worst(st, serialize(m->fluid, &c.fluid_state, &c.fluid_size));
-    }
-    /* the rigid state is the same on every rank: rank 0 writes its own */
-    if (st < STATUS_ERROR && m->rigid != NULL && rank == 0) {
-        st = status_worst(st, serialize(m->rigid, &c.rigid_state, &c.rigid_size));
-    }
-    if (size > 1) {
-        if (rank == 0 && (sizes = calloc((size_t)size, sizeof *sizes)) == NULL) {
-            /* the others wait for rank 0 until its MPI_Abort (mpi_env_finish) */
-            st = log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for the block sizes of %d ranks", size);
-            goto cleanup;
-        }
-        st = status_worst(st, mpi_env_gather_size(c.fluid_size, sizes, &m->log));
-        size_t largest = 0;
-        for (int k = 1; rank == 0 && k < size; k++) {
-            largest = sizes[k] > largest ? sizes[k] : largest;
-        }
-        if (rank == 0 && st < STATUS_ERROR && (b.buf = malloc(largest > 0 ? largest : 1)) == NULL) {
-            st = log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for a fluid block of another rank (%zu bytes)",
-                         largest);
-        }
-        b.sizes = sizes;
-        /* all ranks send and receive, or none */
-        st = agree(m, st);
-    }
-    if (st < STATUS_ERROR && rank > 0) {
-        st = status_worst(st, mpi_env_send(c.fluid_state, c.fluid_size, 0, &m->log));
-    } else if (st < STATUS_ERROR) {
-        c.step = p->n;
-        c.nsteps = p->nsteps;
-        c.rows = output_rows(out);
-        c.next_out = p->next_out;
-        c.exchange_every = p->k_lbm;
-        c.h = p->h;
-        c.ranks = m->ranks;
-        c.settle_t = m->settle_t;
-        c.settle_v = m->settle_v;
-        c.nsettle = m->nsettle;
-        c.wall[0] = p->wall_before[0] + fmu_step_seconds(m->fluid);
-        c.wall[1] = p->wall_before[1] + (m->rigid != NULL ? fmu_step_seconds(m->rigid) : 0.0);
-        c.wall[2] = p->wall_before[2] + omp_get_wtime() - p->wall0;
-        const checkpoint_hooks_t hooks = {receive_block, copy_rows, &b};
-        st = status_worst(st, checkpoint_write(m->cp_path, m->scene, &m->origin, &c, &hooks, &m->log));
-    }
-    if (size > 1) {
-        st = agree(m, st); /* every rank knows whether the checkpoint is there */
-    }
-cleanup:
-    free(b.buf);
-    free(sizes);
-    free(c.fluid_state);
-    free(c.rigid_state);
-    return st;
-}
-
-/* The checkpoint test (--checkpoint-test): the states saved at step n1, the
- * rows after it, compared with the rows of the run restored to n1. */
-typedef struct {
-    long n1;
-    void *fluid_state, *rigid_state;
-    double *rows; /* (n - n1 + 1) rows of nrow doubles + ns + nc ints as doubles */
-    long nrows, cap;
-    int replay;
-    long mismatches;
-} replay_t;
-
-static status_t checkpoint_record(master_t *m, replay_t *c, long n)
-{
-    const int width = m->nrow + m->ns + m->nc;
-    const long k = n - c->n1;
-    double *r;
-    if (!c->replay) {
-        if (k >= c->cap) {
-            c->cap = c->cap > 0 ? 2 * c->cap : 256;
-            double *p = realloc(c->rows, sizeof(double) * (size_t)width * (size_t)c->cap);
-            if (p == NULL) {
-                return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for %ld recorded rows (%zu bytes)", c->cap, sizeof(double) * (size_t)width * (size_t)c->cap);
-            }
-            c->rows = p;
-        }
-        c->nrows = k + 1;
-    }
-    r = c->replay ? malloc(sizeof(double) * (size_t)width) : c->rows + (size_t)k * (size_t)width;
-    if (r == NULL) {
-        return log_msg(&m->log, STATUS_FATAL, CAT, "out of memory for a recorded row (%zu bytes)", sizeof(double) * (size_t)width);
-    }
-    memcpy(r, m->row, sizeof(double) * (size_t)m->nrow);
-    for (int i = 0; i < m->ns; i++) {
-        r[m->nrow + i] = m->ibody[i]; /* (the body count is a function of these) */
-    }
-    for (int i = 0; i < m->nc; i++) {
-        r[m->nrow + m->ns + i] = m->iintact[i];
-    }
-    if (c->replay) {
-        if (k >= c->nrows || memcmp(r, c->rows + (size_t)k * (size_t)width, sizeof(double) * (size_t)width) != 0) {
-            c->mismatches++;
-        }
-        free(r);
-    }
-    return STATUS_OK;
-}
-
 int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
 {
     master_t m;
@@ -811,9 +273,9 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     if (load_fmus(&m) >= STATUS_ERROR) {
         goto done;
     }
-    st = connect(&m, m.rigid, m.fluid, &m.to_fluid_src, &m.to_fluid_dst, &m.nto_fluid);
+    st = master_connect(&m, m.rigid, m.fluid, &m.to_fluid_src, &m.to_fluid_dst, &m.nto_fluid);
     if (m.rigid != NULL) {
-        st = status_worst(st, connect(&m, m.fluid, m.rigid, &m.to_rigid_src, &m.to_rigid_dst, &m.nto_rigid));
+        st = status_worst(st, master_connect(&m, m.fluid, m.rigid, &m.to_rigid_src, &m.to_rigid_dst, &m.nto_rigid));
     }
     if (st >= STATUS_ERROR) {
         log_msg(log, STATUS_ERROR, CAT, "the FMUs do not fit together (see above); nothing was run");
@@ -824,7 +286,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         goto done;
     }
     if (check_guid(&m, m.fluid) >= STATUS_ERROR || (m.rigid != NULL && check_guid(&m, m.rigid) >= STATUS_ERROR) ||
-        plan_observation(&m) >= STATUS_ERROR || (writer && check_writable(opt->output, log) >= STATUS_ERROR)) {
+        master_plan_observation(&m) >= STATUS_ERROR || (writer && check_writable(opt->output, log) >= STATUS_ERROR)) {
         goto done;
     }
     const char *fields_rel = NULL;
@@ -841,7 +303,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             goto done;
         }
     }
-    if (find_origin(&m) != STATUS_OK) {
+    if (master_find_origin(&m) != STATUS_OK) {
         goto done;
     }
     if (opt->restart != NULL) {
@@ -862,13 +324,13 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
                               restart.step, nsteps);
             }
         }
-        if (agree(&m, rst) >= STATUS_ERROR) {
+        if (master_agree(&m, rst) >= STATUS_ERROR) {
             goto done;
         }
         if (!writer) {
             rst = checkpoint_read(opt->restart, scene, &m.origin, &m.ranks, mpi_env_rank(), &restart, log);
         }
-        if (agree(&m, rst) >= STATUS_ERROR) {
+        if (master_agree(&m, rst) >= STATUS_ERROR) {
             goto done;
         }
     }
@@ -898,14 +360,14 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         goto done;
     }
     if (opt->restart != NULL) {
-        status_t rst = deserialize(m.fluid, restart.fluid_state, restart.fluid_size);
+        status_t rst = master_deserialize(m.fluid, restart.fluid_state, restart.fluid_size);
         if (rst < STATUS_ERROR && m.rigid != NULL) {
-            rst = status_worst(rst, deserialize(m.rigid, restart.rigid_state, restart.rigid_size));
+            rst = status_worst(rst, master_deserialize(m.rigid, restart.rigid_state, restart.rigid_size));
         }
         if (rst >= STATUS_ERROR) {
             log_msg(log, STATUS_ERROR, CAT, "the FMU states of %s could not be restored (see above)", opt->restart);
         }
-        if (agree(&m, rst) >= STATUS_ERROR) {
+        if (master_agree(&m, rst) >= STATUS_ERROR) {
             goto done;
         }
         m.settle_t = restart.settle_t;
@@ -944,12 +406,12 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         const int do_out = !cp.replay && (last || t >= next_out * oi - 1e-9 * dt);
         const double w_out0 = omp_get_wtime();
         if (do_out || (cp.n1 >= 0 && n >= cp.n1)) {
-            if (read_row(&m) >= STATUS_ERROR) {
+            if (master_read_row(&m) >= STATUS_ERROR) {
                 goto stopped;
             }
         }
         if (do_out) {
-            if (write_row(&m, out, t) != STATUS_OK) {
+            if (master_write_row(&m, out, t) != STATUS_OK) {
                 goto stopped;
             }
             if (settle >= 0) {
@@ -972,7 +434,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             }
         }
         wout += omp_get_wtime() - w_out0;
-        if (cp.n1 >= 0 && n >= cp.n1 && checkpoint_record(&m, &cp, n) != STATUS_OK) {
+        if (cp.n1 >= 0 && n >= cp.n1 && master_checkpoint_record(&m, &cp, n) != STATUS_OK) {
             goto stopped;
         }
         if (cp.n1 >= 0 && n == cp.n1 && !cp.replay) {
@@ -1001,7 +463,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         if (!last && (cp_due || stop != 0)) {
             point.n = n;
             point.next_out = next_out;
-            if (save_checkpoint(&m, out, &point) != STATUS_OK) {
+            if (master_save_checkpoint(&m, out, &point) != STATUS_OK) {
                 goto stopped;
             }
             while (every > 0.0 && next_cp * every <= t + 1e-9 * dt) {
@@ -1025,7 +487,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         if (last) {
             break;
         }
-        if (cosim_step(&m, t, h) >= STATUS_ERROR) {
+        if (master_step(&m, t, h) >= STATUS_ERROR) {
             log_msg(log, STATUS_ERROR, CAT, "communication step %ld from t = %.9g s failed", n, t);
             goto stopped;
         }
