@@ -139,10 +139,10 @@ drag-report: deps
 # FMUs: the same sources built again with hidden visibility, so that a
 # shared library exports the fmi2* entry points only; of the generic FMI
 # layer (common/fmi_internal.h) common/fmi_adapter.c is compiled once per
-# model (-DFMI_MODEL), the rest once.
-FMI_SRC       := common/fmi_instance.c common/fmi_values.c common/fmi_state.c The fluid links Open MPI and the
+# model (-DFMI_MODEL), the rest once. The fluid links Open MPI and the
 # parallel HDF5 for its field snapshots (common/h5fields.c); it uses MPI only
 # when its master has initialised it (fluid/decomp.c).
+FMI_SRC       := common/fmi_instance.c common/fmi_values.c common/fmi_state.c
 FMU_FLUID_SRC := $(COMMON_SRC) common/fmi_vars.c $(FMI_SRC) common/h5fields.c \
                  $(filter-out fluid/kernel.c fluid/kernel_single.c fluid/scan.c,$(FLUID_SRC)) fluid/kernel_dispatch.c fluid/fluid_fmi.c
 FMU_RIGID_SRC := $(COMMON_SRC) common/fmi_vars.c $(FMI_SRC) $(RIGID_SRC) rigid/rigid_fmi.c
