@@ -1,11 +1,11 @@
-/* spheres.c — map, refill and momentum exchange of moving spheres
- * (spheres.h; the links are built in sphere_links.c). The map stage
- * (covering, uncovering, refill) is serial and touches only the cells
- * inside the spheres; links and fill run in parallel
- * over spheres, each sphere with its own list of links, so that every
- * per-sphere sum is taken in a fixed order (bit-identical results for any
- * thread count) and the work is O(surface), found from each sphere's
- * bounding box. When no sphere moved, flags and links are kept. */
+/* spheres.c — map and refill of moving spheres (spheres.h; the links are
+ * built in sphere_links.c, the fill and the loads are sphere_fill.c's). The
+ * map stage (covering, uncovering, refill) touches only the cells inside the
+ * spheres; links and fill run in parallel over spheres, each sphere with
+ * its own list of links, so that every per-sphere sum is taken in a fixed
+ * order (bit-identical results for any thread count) and the work is
+ * O(surface), found from each sphere's bounding box. When no sphere moved,
+ * flags and links are kept. */
 #include "spheres_internal.h"
 
 #include "../common/coupling.h"
@@ -17,13 +17,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* links ahead at which spheres_fill prefetches a cell's populations */
-#define FILL_AHEAD 12
-/* links ahead at which it prefetches a link's own scattered values */
-#define LINK_AHEAD 8
-/* cells whose loads spheres_fill sums at once (8 x 8 x 256 bytes of stack) */
-#define FILL_CHUNK 256
 
 int spheres_locate(const int lo[3], const int n[3], const int open[6], const int periodic[3], const int N[3],
                    const int X[3], int Y[3])
@@ -544,36 +537,6 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     return st;
 }
 
-static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0,
-                                                             const link_list_t *list, int galilean, double inv_decay,
-                                                             spheres_part_t part, layout_state_t state, int single);
-
-void spheres_fill(spheres_t *sp, const pops_t *f, spheres_part_t part)
-{
-    const int galilean = sp->force == FORCE_GALILEAN;
-    /* n^- of the pre-collision populations from the post-collision ones. TRT
-     * with Guo forcing gives f~^- = (1 - w-) f^- + w- e^- + (1 - w-/2) 3 w c.F,
-     * e^- = 3 w c.(j + F/2), j the pre-collision momentum, and j~ = j + F, so
-     * f~^- - 3 w c.j~ = (1 - w-)(f^- - 3 w c.j): exact, so that both layouts
-     * give the same result, and it treats the initial state (an equilibrium)
-     * as what it is, a state after a collision. Near w- = 1 the collision
-     * forgets n^-. So each link keeps the pre-collision pair of its cell for
-     * the next fill (sphere_link_t.pre), which is exact in either layout and
-     * for any w-; the recovery serves a link new this step, and near w- = 1
-     * such a link goes without the correction for that step. (Reading the
-     * pair of a new link from the other array, which two arrays could, made
-     * a fixed sphere's steady drag at w- = 1 depend on its first step and
-     * creep, 2e-4 after 1500 steps: tests/fluid/test_layouts.c.) */
-    const double inv_decay = 1.0 / (1.0 - sp->omega_minus);
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int k = 0; k < sp->n; k++) {
-        const link_list_t *l = &sp->lists[k];
-#define FILL(state, single) fill_sphere(sp, f, l, galilean, inv_decay, part, state, single)
-        POPS_SPECIALISE(f, FILL);
-#undef FILL
-    }
-}
-
 size_t spheres_pairs_bytes(const spheres_t *sp)
 {
     size_t m = 0;
@@ -637,208 +600,4 @@ int spheres_pairs_in(spheres_t *sp, const unsigned char *buf)
     }
     sp->carried = 1;
     return 1;
-}
-
-void spheres_write_outer(spheres_t *sp, const pops_t *f)
-{
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int k = 0; k < sp->n; k++) {
-        const link_list_t *list = &sp->lists[k];
-        for (size_t n = 0; n < list->n; n++) {
-            const sphere_link_t *l = &list->l[n];
-            if (l->outer) {
-                const int o = lb_opposite(l->q);
-                pops_write(f, o, pops_in_slot(f, o, l->xf), l->fnew);
-            }
-        }
-    }
-}
-
-void spheres_loads(spheres_t *sp)
-{
-    /* every rank's part of each load (the links of its cells, the cells it
-     * covered and uncovered), summed exactly: all ranks get the same load */
-    const int parallel = decomp_parallel(sp->dc);
-    if (parallel) {
-        for (int k = 0; k < sp->n; k++) {
-            memcpy(sp->accbuf + (size_t)k * 8, sp->s[k].acc, sizeof sp->s[k].acc);
-        }
-        decomp_sum(sp->dc, sp->accbuf, 8 * sp->n);
-    }
-    for (int k = 0; k < sp->n; k++) {
-        const xsum_t *a = parallel ? sp->accbuf + (size_t)k * 8 : sp->s[k].acc;
-        sphere_t *p = &sp->s[k];
-        for (int c = 0; c < 3; c++) {
-            p->f[c] = xsum_value(&a[c]);
-            p->t[c] = xsum_value(&a[3 + c]);
-        }
-        p->zt = xsum_value(&a[6]);
-        p->zr = xsum_value(&a[7]);
-    }
-}
-
-static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, const pops_t *f0,
-                                                             const link_list_t *list, int galilean, double inv_decay,
-                                                             spheres_part_t part, layout_state_t state, int single)
-{
-    const pops_t fl = pops_fixed(f0, state, single);
-    const pops_t *f = &fl;
-    size_t cell = (size_t)-1;
-    double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
-    /* the load of a cell's links, summed in q order, then added exactly to
-     * the sphere's (common/exact_sum.h): the same bits on any ranks. The
-     * cells' loads wait in cb and go in FILL_CHUNK at a time, four terms at
-     * a time (xsum_add_array: the same value as one xsum_add per term) */
-    double cl[8] = {0.0};
-    double cb[8][FILL_CHUNK];
-    int ncb = 0;
-    sphere_t *p = list->n > 0 ? &sp->s[list->l[0].sphere] : NULL;
-    /* the recovery of n^- from the post-collision populations (below) holds
-     * away from omega_minus = 1 */
-    const int use_decay = fabs(1.0 - sp->omega_minus) >= SPHERES_MR_DECAY_MIN;
-    for (size_t n = 0; n < list->n; n++) {
-        sphere_link_t *l = &list->l[n];
-        const int q = l->q, o = lb_opposite(q);
-        if (l->xf != cell) { /* the links of a cell are consecutive (sphere_links) */
-            if (n > 0) {
-                for (int a = 0; a < 8; a++) {
-                    cb[a][ncb] = cl[a];
-                    cl[a] = 0.0;
-                }
-                if (++ncb == FILL_CHUNK) {
-                    for (int a = 0; a < 8; a++) {
-                        xsum_add_array(&p->acc[a], cb[a], ncb);
-                    }
-                    ncb = 0;
-                }
-            }
-            cell = l->xf;
-            rho = pops_moments(f, cell, j);
-        }
-        /* the fill waits on memory (the 19 scattered values of a cell's
-         * moments): fetch those of the cell FILL_AHEAD links on in advance */
-        if (n + FILL_AHEAD < list->n && list->l[n + FILL_AHEAD].xf != list->l[n + FILL_AHEAD - 1].xf) {
-            const size_t ahead = list->l[n + FILL_AHEAD].xf;
-            for (int qq = 0; qq < LB_Q; qq++) {
-                pops_prefetch(f, pops_post_slot(f, qq, ahead), 0);
-            }
-        }
-        /* and the link's own scattered values (x_f - c_q, x_f - 2 c_q and the
-         * slot it writes) LINK_AHEAD links on: the fill is bound by their
-         * latency, one miss after another without it */
-        if (n + LINK_AHEAD < list->n) {
-            const sphere_link_t *m = &list->l[n + LINK_AHEAD];
-            const int mo = lb_opposite(m->q);
-            pops_prefetch(f, pops_in_slot(f, mo, m->xf), 1);
-            if (m->xff != m->xf && m->xff < SPHERE_EXT) {
-                pops_prefetch(f, pops_post_slot(f, m->q, m->xff), 0);
-                if (m->co.b[1] != 0.0) {
-                    pops_prefetch(f, pops_post_slot(f, mo, m->xff), 0);
-                }
-            }
-            if (m->co.a[2] != 0.0 && m->xfff < SPHERE_EXT) {
-                pops_prefetch(f, pops_post_slot(f, m->q, m->xfff), 0);
-            }
-        }
-        double wr[3], uw[3];
-        spheres_cross(p->w, l->rw, wr);
-        for (int a = 0; a < 3; a++) {
-            uw[a] = p->v[a] + wr[a];
-        }
-        const double cu = lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2];
-        const double A = l->co.a[0] + l->co.a[1] + l->co.a[2];
-        const double f_old = pops_post(f, q, l->xf);
-        double f_new = l->co.a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
-        const int linear = l->co.a[1] != 0.0 || l->co.b[0] != 0.0 || l->co.b[1] != 0.0;
-        const double f_ff = (linear || l->co.corr != 0.0) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
-        if (linear) {
-            f_new += l->co.a[1] * f_ff + l->co.b[0] * pops_post(f, o, l->xf);
-        }
-        if (l->co.a[2] != 0.0) {
-            f_new += l->co.a[2] * spheres_post(sp, f, q, l->xfff);
-        }
-        if (l->co.b[1] != 0.0) {
-            f_new += l->co.b[1] * spheres_post(sp, f, o, l->xff);
-        }
-        if (l->co.corr != 0.0 && !l->fresh && (l->has_pre || use_decay)) {
-            /* antisymmetric non-equilibrium of the pre-collision populations at x_f:
-             * f_q came from x_f - c_q, f_qbar from the solid side, the very slot of this link.
-             * It is taken against the pre-collision momentum j - F (Guo's collision adds
-             * F to it), i.e. n^- + S^-/2 with S^- = 3 w c.F: the part that carries the
-             * velocity's second derivatives. Against rho u = j - F/2 a forced Poiseuille
-             * flow comes out 0.3% low in 12 cells (tau 1); against j - F it is exact to
-             * round-off for every delta, tau and Lambda (checked with a 1D channel). */
-            double nm;
-            if (l->has_pre) {
-                /* the pair the last fill kept */
-                double cu0 = 0.0;
-                for (int a = 0; a < 3; a++) {
-                    cu0 += lb_c[q][a] * (j[a] - sp->body_force[a]);
-                }
-                nm = 0.5 * (l->pre[0] - l->pre[1]) - 3.0 * lb_w[q] * cu0;
-            } else {
-                const double cj = lb_c[q][0] * j[0] + lb_c[q][1] * j[1] + lb_c[q][2] * j[2];
-                nm = (0.5 * (f_old - pops_post(f, o, l->xf)) - 3.0 * lb_w[q] * cj) * inv_decay;
-            }
-            f_new += l->co.corr * nm;
-        }
-        if (l->co.corr != 0.0) {
-            /* the pre-collision pair of x_f at the next fill: f~_q(x_f - c_q)
-             * streams to x_f, f_new is what x_f receives from the wall */
-            l->pre[0] = f_ff;
-            l->pre[1] = f_new;
-            l->has_pre = l->xff != l->xf;
-        }
-        if (part == SPHERES_HOLD_OUTER && l->outer) {
-            l->fnew = f_new;
-        } else {
-            pops_write(f, o, pops_in_slot(f, o, l->xf), f_new);
-        }
-        /* Eq. 7 (Ladd), populations centred on the rest weight so that hidden
-         * faces of touching spheres carry no spurious pressure; Wen et al.,
-         * Phys. Rev. E 89 (2014) 023305, add -(f_old - f_new) u_w. */
-        const double mem = f_old + f_new - 2.0 * lb_w[q];
-        double df[3];
-        for (int a = 0; a < 3; a++) {
-            df[a] = lb_c[q][a] * mem - (galilean ? (f_old - f_new) * uw[a] : 0.0);
-        }
-        if (l->film != -1) {
-            /* in the film zone: the normal part is the film's (sphere_links.c film_partner) */
-            double n[3] = {0.0, 0.0, 0.0};
-            if (l->film >= 0) {
-                spheres_min_image(sp, p->c, sp->s[l->film].c, n);
-                const double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-                for (int a = 0; a < 3; a++) {
-                    n[a] /= len;
-                }
-            } else {
-                n[(-2 - l->film) / 2] = 1.0;
-            }
-            const double dn = df[0] * n[0] + df[1] * n[1] + df[2] * n[2];
-            for (int a = 0; a < 3; a++) {
-                df[a] -= dn * n[a];
-            }
-        }
-        double t[3];
-        spheres_cross(l->rw, df, t);
-        for (int a = 0; a < 3; a++) {
-            cl[a] += df[a];
-            cl[3 + a] += t[a];
-        }
-        /* the moving-wall term makes df react at once to the wall velocity:
-         * d(df)/d(u_w) = -A 6 w rho c c^T; its isotropic parts for v and for
-         * w (u_w = v + w x r_w, so c . u_w = c . v + w . (r_w x c)) */
-        const double cq[3] = {lb_c[q][0], lb_c[q][1], lb_c[q][2]};
-        double rc[3];
-        spheres_cross(l->rw, cq, rc);
-        const double k = A * 6.0 * lb_w[q] * rho / 3.0;
-        cl[6] += k * (cq[0] * cq[0] + cq[1] * cq[1] + cq[2] * cq[2]);
-        cl[7] += k * (rc[0] * rc[0] + rc[1] * rc[1] + rc[2] * rc[2]);
-    }
-    if (p != NULL) {
-        for (int a = 0; a < 8; a++) {
-            cb[a][ncb] = cl[a];
-            xsum_add_array(&p->acc[a], cb[a], ncb + 1);
-        }
-    }
 }
