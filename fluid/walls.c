@@ -434,11 +434,16 @@ void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
 
 enum { WALLS_AHEAD = 16 };
 
-void walls_links_prepare(const walls_t *w, const pops_t *p)
+/* walls_links_prepare's share of the links from each thread, with the
+ * layout state and precision known at compile time (POPS_SPECIALISE): the
+ * slots of a cell's 19 values are then straight arithmetic, not a switch
+ * per value. */
+static inline __attribute__((always_inline)) void prepare_links(const walls_t *w, const pops_t *p0,
+                                                                layout_state_t state, int single)
 {
+    const pops_t pf = pops_fixed(p0, state, single);
+    const pops_t *p = &pf;
     const ptrdiff_t n = (ptrdiff_t)w->nlinks;
-#pragma omp parallel
-    {
     /* the links of a cell are consecutive (walls_build): its moments once,
      * the slip term once per normal (a cell at an edge has links of two faces) */
     size_t last = (size_t)-1;
@@ -500,6 +505,15 @@ void walls_links_prepare(const walls_t *w, const pops_t *p)
             }
         }
     }
+}
+
+void walls_links_prepare(const walls_t *w, const pops_t *p)
+{
+#pragma omp parallel
+    {
+#define PREPARE(state, single) prepare_links(w, p, state, single)
+        POPS_SPECIALISE(p, PREPARE);
+#undef PREPARE
     }
 }
 
