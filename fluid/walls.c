@@ -517,15 +517,18 @@ void walls_links_prepare(const walls_t *w, const pops_t *p)
     }
 }
 
-void walls_links(const walls_t *w, const pops_t *p, walls_part_t part)
+/* walls_links' share of the copies and links from each thread, with the
+ * layout state and precision known at compile time (as prepare_links). */
+static inline __attribute__((always_inline)) void fill_links(const walls_t *w, const pops_t *p0, walls_part_t part,
+                                                             layout_state_t state, int single)
 {
+    const pops_t pf = pops_fixed(p0, state, single);
+    const pops_t *p = &pf;
     const ptrdiff_t c0 = part == WALLS_LATE ? (ptrdiff_t)w->ncopies_early : 0;
     const ptrdiff_t nc = part == WALLS_EARLY ? (ptrdiff_t)w->ncopies_early : (ptrdiff_t)w->ncopies;
     const ptrdiff_t l0 = part == WALLS_LATE ? (ptrdiff_t)w->nlinks_early : 0;
     const ptrdiff_t n = part == WALLS_EARLY ? (ptrdiff_t)w->nlinks_early : (ptrdiff_t)w->nlinks;
     const copy_link_t *restrict cp = w->copies;
-#pragma omp parallel
-    {
 #pragma omp for schedule(static) nowait
     for (ptrdiff_t i = c0; i < nc; i++) {
         /* the mirrored direction has the same weight */
@@ -555,5 +558,14 @@ void walls_links(const walls_t *w, const pops_t *p, walls_part_t part)
         }
         }
     }
+}
+
+void walls_links(const walls_t *w, const pops_t *p, walls_part_t part)
+{
+#pragma omp parallel
+    {
+#define FILL(state, single) fill_links(w, p, part, state, single)
+        POPS_SPECIALISE(p, FILL);
+#undef FILL
     }
 }
