@@ -28,12 +28,24 @@
 #define SCAN_CAT(a, b) SCAN_CAT2(a, b)
 #if defined(KERNEL_VARIANT)
 #define SCAN_ENTRY SCAN_CAT(fluid_scan, KERNEL_VARIANT)
+#define SCAN_XSUM SCAN_CAT(fluid_scan_xsum, KERNEL_VARIANT)
 #else
 #define SCAN_ENTRY fluid_scan
+#define SCAN_XSUM fluid_scan_xsum
 #endif
 int SCAN_ENTRY(const fluid_t *fl, double umax2, double *plane, xsum_t *sums, int totals);
 
 typedef double v4_t __attribute__((vector_size(32)));
+
+/* The exact sum of a span's terms (exact_sum.h) as a function of this
+ * file's own, under the variant's name, with everything in it inlined:
+ * called from the six copies of scan_plane, xsum_add_array was left out of
+ * line under its own name, so that the x86-64-v3 compile put AVX code where
+ * a CPU without AVX could reach it (test_fmu checks). */
+static __attribute__((noinline, flatten)) void SCAN_XSUM(xsum_t *s, const double *v, int n)
+{
+    xsum_add_array(s, v, n);
+}
 
 /* four consecutive values of a population (a pointer, not a return value:
  * a 32-byte vector returned without AVX would change the ABI) */
@@ -231,11 +243,11 @@ static inline __attribute__((always_inline)) void scan_plane(const fluid_t *fl, 
             }
         }
         if (totals) {
-            xsum_add_array(&xs[0], rho, span);
-            xsum_add_array(&xs[1], jx, span);
-            xsum_add_array(&xs[2], jy, span);
-            xsum_add_array(&xs[3], jz, span);
-            xsum_add_array(&xs[4], en, span);
+            SCAN_XSUM(&xs[0], rho, span);
+            SCAN_XSUM(&xs[1], jx, span);
+            SCAN_XSUM(&xs[2], jy, span);
+            SCAN_XSUM(&xs[3], jz, span);
+            SCAN_XSUM(&xs[4], en, span);
         }
     }
     /* the largest speed (NaN ignored, as fmax does): sqrt is monotonic, so the
