@@ -53,7 +53,8 @@ static inline pops_t fluid_pops(const fluid_t *fl)
  * collision keeps the density and adds the force F to the momentum, so the
  * velocity it used is u = (sum c f~ - F/2) / rho (Guo et al. 2002). Needs no
  * boundary values, and so is exact next to walls and spheres. */
-static inline __attribute__((always_inline)) void fluid_post_velocity(const fluid_t *fl, double rho, const double j[3], double u[3])
+static inline __attribute__((always_inline)) void fluid_post_velocity(const fluid_t *fl, double rho, const double j[3],
+                                                                     double u[3])
 {
     for (int a = 0; a < 3; a++) {
         u[a] = (j[a] - 0.5 * fl->kp.force[a]) / rho;

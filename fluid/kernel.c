@@ -88,10 +88,10 @@ typedef struct {
         const double eqp = (W) * rho * (1.0 + 4.5 * cu * cu - usq15);              \
         const double eqm = (W) * rho * 3.0 * cu;                                   \
         double np = fp - wp * (fp - eqp), nm = fm - wm * (fm - eqm);               \
-        if (forced) {                                                              \
+        if (forced) { /* the same additions, left to right, as one expression */   \
             const double cf = (A) * fx + (B) * fy + (C) * fz;                      \
-            np = fp - wp * (fp - eqp) + gp * (W) * (9.0 * cu * cf - uf3);          \
-            nm = fm - wm * (fm - eqm) + k_->sm[k];                                 \
+            np += gp * (W) * (9.0 * cu * cf - uf3);                                \
+            nm += k_->sm[k];                                                       \
         }                                                                          \
         if (direct == 2) {                                                         \
             OWN(fb##k, W, np + nm);                                                \
@@ -203,8 +203,10 @@ static inline __attribute__((always_inline)) void collide_block(const consts_t *
         const double usq15 = 1.5 * (ux * ux + uy * uy + uz * uz);
         const double uf3 = forced ? 3.0 * (ux * fx + uy * fy + uz * fz) : 0.0;
         const double eq0 = (1.0 / 3.0) * rho * (1.0 - usq15);
-        const double n0 =
-            forced ? V(f0) - wp * (V(f0) - eq0) - gp * (1.0 / 3.0) * uf3 : V(f0) - wp * (V(f0) - eq0);
+        double n0 = V(f0) - wp * (V(f0) - eq0);
+        if (forced) {
+            n0 -= gp * (1.0 / 3.0) * uf3;
+        }
         if (direct == 2) {
             OWN(f0, 1.0 / 3.0, n0);
         } else {
