@@ -3,6 +3,7 @@
 #include "fmi_internal.h"
 
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,7 +17,7 @@ static const char *const STATE_NAMES[NSTATES] = {
 /* ------------------------------------------------------------------------ */
 /* Logging                                                                   */
 
-void fmi_emit(const inst_t *in, status_t level, int cat, const char *msg)
+static void emit(const inst_t *in, status_t level, int cat, const char *msg)
 {
     if (in->logger == NULL) {
         return;
@@ -60,7 +61,7 @@ void fmi_native_log(void *ctx, status_t level, const char *category, const char 
 {
     char buf[3000];
     snprintf(buf, sizeof buf, "[%s] %s", category != NULL ? category : "-", msg);
-    fmi_emit(ctx, level, level_category(level), buf);
+    emit(ctx, level, level_category(level), buf);
 }
 
 static fmi2Status vreport(const inst_t *in, status_t level, const char *fn, const char *fmt, va_list ap)
@@ -68,7 +69,7 @@ static fmi2Status vreport(const inst_t *in, status_t level, const char *fn, cons
     char msg[2500], buf[2700];
     vsnprintf(msg, sizeof msg, fmt, ap);
     snprintf(buf, sizeof buf, "%s: %s", fn, msg);
-    fmi_emit(in, level, level_category(level), buf);
+    emit(in, level, level_category(level), buf);
     return (fmi2Status)level;
 }
 
@@ -102,7 +103,7 @@ __attribute__((format(printf, 3, 4))) void fmi_trace(const inst_t *in, const cha
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
     snprintf(buf, sizeof buf, "%s(%s)", fn, msg);
-    fmi_emit(in, STATUS_OK, FMI_CAT_CALLS, buf);
+    emit(in, STATUS_OK, FMI_CAT_CALLS, buf);
 }
 /* ------------------------------------------------------------------------ */
 /* Instance and state checks                                                 */
@@ -150,7 +151,7 @@ int fmi_illegal(const inst_t *in, const char *fn, int mask)
 }
 
 
-const char *fmi_type_name(fmi_type_t t)
+static const char *type_name(fmi_type_t t)
 {
     return t == FMI_REAL ? "Real" : t == FMI_INTEGER ? "Integer" : t == FMI_BOOLEAN ? "Boolean" : "String";
 }
@@ -170,8 +171,8 @@ int fmi_bad_refs(const inst_t *in, const char *fn, const fmi2ValueReference vr[]
         }
         const fmi_var_t *v = &in->vars.v[vr[i]];
         if (v->type != type) {
-            fmi_fail(in, fn, "value reference %u (%s) is of type %s, not %s", vr[i], v->name, fmi_type_name(v->type),
-                     fmi_type_name(type));
+            fmi_fail(in, fn, "value reference %u (%s) is of type %s, not %s", vr[i], v->name, type_name(v->type),
+                     type_name(type));
             return 1;
         }
     }

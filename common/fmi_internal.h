@@ -16,7 +16,6 @@
 #include "fmi2.h"
 #include "fmi_adapter.h"
 
-#include <stdarg.h>
 #include <stddef.h>
 
 #define INSTANCE_MAGIC 0x53504649u /* "SPFI": tells an instance from a stray pointer */
@@ -97,9 +96,8 @@ typedef struct {
 } fmu_state_t;
 
 /* Logging (fmi_instance.c): through the FMI logger with the status as
- * category; errors always, other messages as fmi2SetDebugLogging asks. */
-void fmi_emit(const inst_t *in, status_t level, int cat, const char *msg);
-/* The native components' log_t sink: ctx is the instance. */
+ * category; errors always, other messages as fmi2SetDebugLogging asks.
+ * The native components' log_t sink: ctx is the instance. */
 void fmi_native_log(void *ctx, status_t level, const char *category, const char *msg);
 /* "fn: message" as an error; returns fmi2Error. */
 __attribute__((format(printf, 3, 4))) fmi2Status fmi_fail(const inst_t *in, const char *fn, const char *fmt, ...);
@@ -118,7 +116,6 @@ const char *fmi_state_name(int state);
 /* 1 (logged) when a value reference does not exist or is not of type. */
 int fmi_bad_refs(const inst_t *in, const char *fn, const fmi2ValueReference vr[], size_t nvr, const void *values,
                  fmi_type_t type);
-const char *fmi_type_name(fmi_type_t t);
 
 /* The start of every entry point on an instance: a stray pointer or a call
  * in a state the function is not legal in returns fmi2Error (logged). */
