@@ -166,13 +166,18 @@ def test_sigkill_without_checkpoint_keeps_the_rows_written(coupler, reference, t
     # by SIGKILL, with no checkpoint and no clean-up, leaves a readable file whose rows are
     # the uninterrupted run's first rows, bit for bit, and which lacks at most the rows of
     # the last second before the kill
+    # the run is far longer than the wait (100 000 steps; 700 took 5.5 s here and under 4 s on
+    # CI's machine, which made the test fail), so it is alive when the kill comes on any machine
     out = tmp_path / "killed.h5"
-    proc = start("run", SCENE, "-o", out, "--steps", STEPS, "--quiet", "--set", "run.fields=false",
+    proc = start("run", SCENE, "-o", out, "--steps", "100000", "--quiet", "--set", "run.fields=false",
                  "--set", "run.output_interval=1.6667e-5")  # a row every step
-    time.sleep(4.0)
-    assert proc.poll() is None, "the run ended before it was killed"
-    proc.send_signal(signal.SIGKILL)
-    proc.wait()
+    try:
+        time.sleep(4.0)
+        assert proc.poll() is None, "the run ended before it was killed: " + proc.stderr.read()
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL
     ref = datasets(reference["verlet"])
     with h5py.File(out, "r") as f:
         t = f["/time"][()]
