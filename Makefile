@@ -32,7 +32,7 @@ SCENE    ?= models/sinking_sphere.yaml
 
 COMMON_SRC  := common/status.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
                common/scene_build.c common/scene_check.c common/coupling.c
-FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/lattice.c fluid/kernel.c fluid/kernel_single.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
+FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/kernel.c fluid/kernel_single.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
                fluid/spheres.c fluid/sphere_links.c fluid/sphere_fill.c fluid/state.c fluid/initial_profile.c fluid/fluid.c fluid/diagnostics.c fluid/scan.c
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
                rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \

@@ -16,8 +16,21 @@
 #define LB_HALF 9
 #define LB_CS2 (1.0 / 3.0)
 
-extern const int lb_c[LB_Q][3];
-extern const double lb_w[LB_Q];
+/* The tables themselves, not only their declarations: with the values known
+ * at compile time a loop over q unrolled by the compiler has c_q as
+ * literals (scan.c sums without products by 0). Each file that uses them
+ * has its own copy of 19 x 3 ints and 19 doubles. */
+static const int lb_c[LB_Q][3] = {
+    {0, 0, 0},
+    {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 0}, {1, -1, 0}, {1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1},
+    {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}, {-1, -1, 0}, {-1, 1, 0}, {-1, 0, -1}, {-1, 0, 1}, {0, -1, -1}, {0, -1, 1},
+};
+
+static const double lb_w[LB_Q] = {
+    1.0 / 3.0,
+    1.0 / 18.0, 1.0 / 18.0, 1.0 / 18.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0,
+    1.0 / 18.0, 1.0 / 18.0, 1.0 / 18.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0,
+};
 
 static inline int lb_opposite(int q)
 {
