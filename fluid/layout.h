@@ -176,12 +176,13 @@ static inline __attribute__((always_inline)) double pops_moments(const pops_t *p
 {
     double rho = 0.0;
     j[0] = j[1] = j[2] = 0.0;
+#pragma GCC unroll 19
     for (int q = 0; q < LB_Q; q++) {
         const double v = pops_post(p, q, x);
         rho += v;
-        j[0] += lb_c[q][0] * v;
-        j[1] += lb_c[q][1] * v;
-        j[2] += lb_c[q][2] * v;
+        LB_ADD(j[0], lb_c[q][0], v);
+        LB_ADD(j[1], lb_c[q][1], v);
+        LB_ADD(j[2], lb_c[q][2], v);
     }
     return rho;
 }

@@ -22,12 +22,13 @@ static int neighbour(spheres_t *sp, const grid_t *g, const uint8_t *flags, const
 static void moments(const spheres_t *sp, const pops_t *p, size_t i, double *rho, double u[3])
 {
     double r = 0.0, j[3] = {0.0, 0.0, 0.0};
-    for (int q = 0; q < LB_Q; q++) { /* the order of pops_moments */
+#pragma GCC unroll 19
+    for (int q = 0; q < LB_Q; q++) { /* the sums of pops_moments */
         const double v = spheres_post(sp, p, q, i);
         r += v;
-        j[0] += lb_c[q][0] * v;
-        j[1] += lb_c[q][1] * v;
-        j[2] += lb_c[q][2] * v;
+        LB_ADD(j[0], lb_c[q][0], v);
+        LB_ADD(j[1], lb_c[q][1], v);
+        LB_ADD(j[2], lb_c[q][2], v);
     }
     *rho = r;
     for (int a = 0; a < 3; a++) {

@@ -74,23 +74,16 @@ static inline __attribute__((always_inline)) void span_moments(const pops_t *pl,
     int x = 0;
     for (; x + 4 <= n; x += 4) {
         v4_t r = {0.0, 0.0, 0.0, 0.0}, a = r, b = r, c = r;
-        /* unrolled, the velocities of lattice.h are literals, so that a
-         * term c v with c = 0 is not there at all (0 v stays a product
-         * without -ffast-math: it might be -0 or NaN) and +-1 is an addition
-         * or a subtraction: the same sums as pops_moments' in q order
-         * (adding +0 changes no sum that is not -0, and none is) in a third
-         * of the arithmetic */
-#define SCAN_ADD(s, K, v) ((K) > 0 ? (void)((s) += (v)) : (K) < 0 ? (void)((s) -= (v)) : (void)0)
+        /* the sums of pops_moments, in q order, four cells at a time */
 #pragma GCC unroll 19
         for (int q = 0; q < LB_Q; q++) {
             v4_t v;
             load4(pl, s0[q] + (size_t)x, lb_w[q], &v);
             r += v;
-            SCAN_ADD(a, lb_c[q][0], v);
-            SCAN_ADD(b, lb_c[q][1], v);
-            SCAN_ADD(c, lb_c[q][2], v);
+            LB_ADD(a, lb_c[q][0], v);
+            LB_ADD(b, lb_c[q][1], v);
+            LB_ADD(c, lb_c[q][2], v);
         }
-#undef SCAN_ADD
         __builtin_memcpy(rho + x, &r, sizeof r);
         __builtin_memcpy(jx + x, &a, sizeof a);
         __builtin_memcpy(jy + x, &b, sizeof b);

@@ -448,7 +448,7 @@ static inline __attribute__((always_inline)) void prepare_links(const walls_t *w
      * the slip term once per normal (a cell at an edge has links of two faces) */
     size_t last = (size_t)-1;
     int last_axis = -1;
-    double rho_last = 0.0, u_last[3], uk_last[3] = {0.0, 0.0, 0.0};
+    double rho_last = 0.0, u_last[3] = {0.0, 0.0, 0.0}, uk_last[3] = {0.0, 0.0, 0.0};
 #pragma omp for schedule(static)
     for (ptrdiff_t i = 0; i < n; i++) {
         const ghost_link_t *l = &w->links[i];
