@@ -78,7 +78,7 @@ run: deps
 	@mkdir -p $(BUILD)/out
 	$(BUILD)/coupler run $(SCENE) -o $(BUILD)/out/$(basename $(notdir $(SCENE))).h5
 	$(PY) coupler/plot.py $(BUILD)/out/$(basename $(notdir $(SCENE))).h5
-	$(PY) coupler/check.py $(BUILD)/out/$(basename $(notdir $(SCENE))).h5
+	$(PY) models/checks/check.py $(BUILD)/out/$(basename $(notdir $(SCENE))).h5
 
 # SAN=1 runs the CUnit suites only: pytest drives build/coupler and loads the
 # FMUs into Python, which would need libasan preloaded (README "Tests").

@@ -1,6 +1,6 @@
-"""h5out.py — reading a `coupler run` output file (DESIGN section 5) for the
-scripts in coupler/ (plot.py, check_shear.py, check_agglomerates.py), and the
-one way they save a figure."""
+"""h5out.py — reading a `coupler run` output file (DESIGN section 5) for
+coupler/plot.py and the scene checks in models/checks/, and the one way they
+save a figure."""
 import h5py
 import matplotlib
 

@@ -5,7 +5,7 @@
 
 Scenes (see models/README.md): dual_star_shear, agglomerate_16/32/64,
 three_agglomerates, channel_collision, breakup_shear. The complex agglomerates
-come from coupler/agglomerate.py (seeded random sequential attachment with
+come from models/agglomerate.py (seeded random sequential attachment with
 sintering); the same seeds always give the same files.
 """
 import argparse
@@ -16,7 +16,7 @@ import sys
 import numpy as np
 
 HERE = pathlib.Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "coupler"))
+sys.path.insert(0, str(HERE))
 import agglomerate  # noqa: E402
 
 WATER = {"density": 1000.0, "viscosity": 1.0e-6}
@@ -127,7 +127,7 @@ def scene_agglomerate(n, seed):
     u = 0.005
     return "\n".join([
         f"# A complex asymmetric agglomerate of {n} sintered spheres (radius 2.5e-4 m = 5 cells,",
-        f"# 10% overlap, seed {seed}: coupler/agglomerate.py) in simple shear between z walls moving",
+        f"# 10% overlap, seed {seed}: models/agglomerate.py) in simple shear between z walls moving",
         f"# at -+{u} m/s; connection forces and torques recorded (Eq. 8, 9).",
         shear_domain(size, dx, u),
         "bodies:",

@@ -1,5 +1,5 @@
 """The agglomerate scenes of issue 6: channel collision (fusion), break-up in shear, the
-complex agglomerates of the paper's Fig. 9 (coupler/check_agglomerates.py does the checks).
+complex agglomerates of the paper's Fig. 9 (models/checks/ does the checks).
 
 Short versions (`make test`, each well under a minute with 2 threads) run the real scene
 files with a few `--set` overrides:
@@ -15,7 +15,7 @@ files with a few `--set` overrides:
     bodies changes by exactly the hydrodynamic impulse in every step.
 The full versions (`make validate`, marked `validate`) run channel_collision and breakup_shear
 as committed and the agglomerate scenes to bounded end times (models/README.md), and require
-the check of check_agglomerates.py.
+the check of models/checks/.
 """
 import math
 import os
@@ -26,10 +26,13 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import COUPLER, MODELS, ROOT, run
+from conftest import COUPLER, MODELS, run
 
-sys.path.insert(0, str(ROOT / "coupler"))
-import check_agglomerates as ca  # noqa: E402
+sys.path.insert(0, str(MODELS / "checks"))
+import agglo as ca  # noqa: E402
+import agglomerates_in_shear  # noqa: E402
+import breakup_shear  # noqa: E402
+import channel_collision  # noqa: E402
 
 EVERY_STEP = ("--set", "run.output_interval=1e-9")   # a row per communication step (a warning says so)
 COLLISION_GAP = 0.15   # radii of x travel left before the two agglomerates touch (short collision)
@@ -158,13 +161,13 @@ def test_breakup_shear_short_breaks_and_balances(coupler, tmp_path):
         b = ca.balance_at(d, k)
         assert b["okP"] and b["okL"], "\n".join(ca.balance_lines(b, f"break at row {k}"))
     # body ids are the connected components of the intact connections in every row
-    imp = ca.implicit_bonds(d)
+    imp = breakup_shear.implicit_bonds(d)
     for k in range(len(d["t"])):
         edges = [tuple(p) for p, on in zip(d["pair"], d["intact"][k]) if on] + imp
-        assert ca.same_partition(ca.components(len(d["radius"]), edges), d["body"][k]), f"row {k}"
+        assert breakup_shear.same_partition(breakup_shear.components(len(d["radius"]), edges), d["body"][k]), f"row {k}"
     # no intact connection ever carries more than its limit; a connection breaks in the step
     # whose load exceeds its limit (that row holds the breaking load) and carries nothing after
-    ratio, where = ca.limit_violations(d)
+    ratio, where = breakup_shear.limit_violations(d)
     assert ratio <= 1 + 1e-9, where
     nbroken = 0
     for k, c in enumerate(d["scene"]["connections"]):
@@ -215,14 +218,14 @@ FULL_TIMEOUT = 1800   # s
 @pytest.mark.validate
 def test_channel_collision_full(coupler, tmp_path):
     out = _run(tmp_path, "channel_collision", timeout=FULL_TIMEOUT)
-    ok, lines = ca.check_channel_collision(str(out), str(tmp_path))
+    ok, lines = channel_collision.check_channel_collision(str(out), str(tmp_path))
     assert ok, "\n".join(lines)
 
 
 @pytest.mark.validate
 def test_breakup_shear_full(coupler, tmp_path):
     out = _run(tmp_path, "breakup_shear", timeout=FULL_TIMEOUT)
-    ok, lines = ca.check_breakup_shear(str(out), str(tmp_path))
+    ok, lines = breakup_shear.check_breakup_shear(str(out), str(tmp_path))
     assert ok, "\n".join(lines)
 
 
@@ -235,5 +238,5 @@ def test_breakup_shear_full(coupler, tmp_path):
 ])
 def test_agglomerate_full(coupler, tmp_path, scene, end_time):
     out = _run(tmp_path, scene, "--set", f"run.end_time={end_time}", timeout=FULL_TIMEOUT)
-    ok, lines = ca.check_agglomerate(str(out), str(tmp_path))
+    ok, lines = agglomerates_in_shear.check_agglomerate(str(out), str(tmp_path))
     assert ok, "\n".join(lines)

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import MODELS, PY, ROOT, run
+from conftest import MODELS, PY, run
 
-sys.path.insert(0, str(ROOT / "coupler"))
+sys.path.insert(0, str(MODELS))
 import agglomerate  # noqa: E402
 
 SCENES = ["dual_star_shear", "sphere_in_shear", "agglomerate_16", "agglomerate_32", "agglomerate_64",

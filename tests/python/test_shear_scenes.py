@@ -4,7 +4,7 @@ Short versions (run by `make test`) assert what holds from the first steps: fini
 fluid mass bound stated in models/README.md, the exact half-turn symmetry of the dual star
 (right central connection force = - left, no force along the vorticity axis, rotation only
 about y) and, for the sphere, its spin-up towards gamma/2 at a coarse resolution. The full
-runs (`make validate`) assert the checks of coupler/check_shear.py: the sinusoid fit residual
+runs (`make validate`) assert the checks of models/checks/shear.py: the sinusoid fit residual
 of the connection forces and the sphere's steady rotation at gamma/2 within 1%."""
 import math
 import os
@@ -15,10 +15,10 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import COUPLER, MODELS, PY, ROOT, run
+from conftest import COUPLER, MODELS, PY, run
 
-sys.path.insert(0, str(ROOT / "coupler"))
-import check_shear  # noqa: E402
+sys.path.insert(0, str(MODELS / "checks"))
+import shear as check_shear  # noqa: E402
 
 # bounds of max |m(t) - m(0)| / m(0) (/fluid/mass), measured and stated in models/README.md. The dual
 # star's /fluid/mass follows the number of fluid cells as its spheres cover and uncover cells (measured
@@ -118,6 +118,6 @@ def test_sphere_in_shear_full(coupler, tmp_path):
     assert p.returncode == 0, p.stderr
     ok, lines = check_shear.check_sphere_in_shear(out, tmp_path)
     assert ok, "\n".join(lines)
-    p = subprocess.run([str(PY), str(ROOT / "coupler" / "check_shear.py"), str(out), "-o", str(tmp_path)],
+    p = subprocess.run([str(PY), str(MODELS / "checks" / "check.py"), str(out), "-o", str(tmp_path)],
                        capture_output=True, text=True)
     assert p.returncode == 0, p.stdout + p.stderr

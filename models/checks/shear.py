@@ -1,12 +1,4 @@
-#!/usr/bin/env python3
-"""check_shear.py — checks and figures for the shear scenes of issue 6.
-
-    .venv/bin/python coupler/check_shear.py OUT.h5 [-o DIR]
-
-Picks the check from the scene of OUT.h5 (root attribute `scene_file`, else the
-shape of the scene): `dual_star_shear` -> check_dual_star, `sphere_in_shear` ->
-check_sphere_in_shear. Prints the report, writes PNG figures into DIR (default:
-beside OUT.h5) and exits 1 if a check fails (2 if the file fits neither check).
+"""shear.py — the checks and figures of the shear scenes (check.py picks the check).
 
 check_dual_star(h5, outdir) -> (ok, lines)
     The paper's dual star (Iglberger, Thuerey & Ruede 2008, Fig. 7/8) in simple
@@ -36,9 +28,9 @@ check_sphere_in_shear(h5, outdir) -> (ok, lines)
 Both also report the relative change of the fluid mass (/fluid/mass) and fail
 on any non-finite value.
 """
-import argparse
 import math
 import os
+import pathlib
 import sys
 
 import matplotlib
@@ -47,6 +39,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "coupler"))
 import h5out  # noqa: E402
 
 PAPER_MAX_FORCE = 7.00557e-7  # N, Iglberger, Thuerey & Ruede (2008), Section 5, Fig. 8
@@ -478,29 +471,3 @@ def check_sphere_in_shear(h5, outdir):
         lines.append(f"  figure: {stem}_rotation.png")
     lines.insert(0, f"check_sphere_in_shear: {'PASS' if rep.ok else 'FAIL'}")
     return rep.ok, lines
-
-
-CHECKS = {"dual_star_shear": check_dual_star, "sphere_in_shear": check_sphere_in_shear}
-
-
-def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("output", help="an OUT.h5 of coupler run")
-    p.add_argument("-o", "--dir", help="folder for the PNG files (default: beside the file)")
-    args = p.parse_args(argv)
-    outdir = args.dir or os.path.dirname(os.path.abspath(args.output))
-    try:
-        name = scene_name(read(args.output))
-        if name is None:
-            print(f"check_shear.py: {args.output}: neither dual_star_shear nor sphere_in_shear", file=sys.stderr)
-            return 2
-        ok, lines = CHECKS[name](args.output, outdir)
-    except (OSError, KeyError, ValueError) as ex:
-        print(f"check_shear.py: {args.output}: {ex}", file=sys.stderr)
-        return 1
-    print("\n".join(lines))
-    return 0 if ok else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())
