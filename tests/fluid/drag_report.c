@@ -52,7 +52,7 @@ static drag_stats_t run_positions(boundary_scheme_t scheme, collision_t op, doub
         e[i] = d.k_flux;
         m[i] = d.k_rel;
         if (csv != NULL) {
-            fprintf(csv, "%s,%s,%g,%g,%d,%.6f,%.6f,%.6f,%.6e,%.6e,%ld,%ld,%.3f\n", scheme_names[scheme],
+            fprintf(csv, "%s,%s,%g,%g,%d,%.6f,%.6f,%.6f,%.17g,%.17g,%ld,%ld,%.3f\n", scheme_names[scheme],
                     op == COLLISION_BGK ? "bgk" : "trt", radius, tau, i,
                     p[i][0], p[i][1], p[i][2], d.k_flux, d.k_rel, d.nsolid, steps, omp_get_wtime() - t0);
             fflush(csv);
@@ -236,7 +236,7 @@ int rotation_report(const char *dir, const drag_plan_t *plan)
                     const int L = (int)lround(4.0 * plan->radii[r]);
                     const double e = harness_rotating_torque(L, plan->radii[r], plan->taus[t], op, scheme, p[i], &steps);
                     const double secs = omp_get_wtime() - t0;
-                    fprintf(csv, "%s,%s,%g,%g,%d,%.6f,%.6f,%.6f,%.6e,%ld,%.3f\n", scheme_names[scheme],
+                    fprintf(csv, "%s,%s,%g,%g,%d,%.6f,%.6f,%.6f,%.17g,%ld,%.3f\n", scheme_names[scheme],
                             op == COLLISION_BGK ? "bgk" : "trt", plan->radii[r], plan->taus[t], i, p[i][0], p[i][1],
                             p[i][2], e, steps, secs);
                     fflush(csv);
