@@ -301,6 +301,15 @@ def sanity(d, name):
     return ok, lines
 
 
+def begin(h5, name=None):
+    """What every check starts with: the data of output h5, its scene name (name, else the
+    scene's own), and the sanity part: (d, name, ok, report lines)."""
+    d = read(h5)
+    name = name or scene_name(d) or "agglomerate"
+    ok, lines = sanity(d, name)
+    return d, name, ok, [f"{name}: {h5}"] + lines
+
+
 # ---------------------------------------------------------------------------------------------
 # figures
 

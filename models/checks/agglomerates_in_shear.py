@@ -14,8 +14,7 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 
-from agglo import (agglomerate_3d, connection_figure, group_centroids, read, sanity, save, scene_name,
-                   shear_rate, snapshot_xz)
+from agglo import agglomerate_3d, begin, connection_figure, group_centroids, save, shear_rate, snapshot_xz
 
 # Mean angular velocity about the vorticity axis / (gamma/2): a rigid body in simple shear turns
 # with the shear at a rate between gamma/(p^2+1) and gamma p^2/(p^2+1) (Jeffery 1922, aspect ratio
@@ -29,11 +28,7 @@ STARTUP = 0.05
 
 
 def check_agglomerate(h5, outdir):
-    d = read(h5)
-    name = scene_name(d) or "agglomerate"
-    lines = [f"{name}: {h5}"]
-    ok, sl = sanity(d, name)
-    lines += sl
+    d, name, ok, lines = begin(h5)
     t, nb = d["t"], d["nbodies"]
     nsb = len(d["scene"]["bodies"])
     written = []

@@ -12,8 +12,8 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 
-from agglo import (body_events, connection_figure, event_balance, every_row_balance, momentum,
-                   one_step_apart, read, sanity, save, snapshot_xz)
+from agglo import (begin, body_events, connection_figure, event_balance, every_row_balance, momentum,
+                   one_step_apart, save, snapshot_xz)
 
 
 def components(n, edges):
@@ -75,11 +75,7 @@ def limit_violations(d):
 
 
 def check_breakup_shear(h5, outdir):
-    d = read(h5)
-    name = "breakup_shear"
-    lines = [f"breakup_shear: {h5}"]
-    ok, sl = sanity(d, name)
-    lines += sl
+    d, name, ok, lines = begin(h5, "breakup_shear")
     t, nb = d["t"], d["nbodies"]
     P, src = momentum(d)
     ev = body_events(d)

@@ -10,16 +10,12 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 
-from agglo import (L_TOL, P_TOL, body_events, connection_figure, event_balance, every_row_balance,
-                   fields_slice, group_centroids, momentum, read, sanity, save, shares, snapshot_xz)
+from agglo import (L_TOL, P_TOL, begin, body_events, connection_figure, event_balance, every_row_balance,
+                   fields_slice, group_centroids, momentum, save, shares, snapshot_xz)
 
 
 def check_channel_collision(h5, outdir):
-    d = read(h5)
-    name = "channel_collision"
-    lines = [f"channel_collision: {h5}"]
-    ok, sl = sanity(d, name)
-    lines += sl
+    d, name, ok, lines = begin(h5, "channel_collision")
     t, nb = d["t"], d["nbodies"]
     P, src = momentum(d)
     groups = [np.nonzero(d["scene_body"] == b)[0] for b in range(len(d["scene"]["bodies"]))]
