@@ -228,16 +228,17 @@ static int compare_doubles(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* One whole `coupler run` of the scene (export, master, output), in seconds. */
+/* One whole `coupler run` of the scene (export, master, output), in seconds;
+ * its parts in *tm. */
 static double timed_run(const char *path, const char *const *overrides, int nover, long steps, const char *lib_dir,
-                        const char *out)
+                        const char *out, run_times_t *tm)
 {
     log_t log = {log_stderr, NULL};
     scene_t *s = NULL;
     if (scene_load(path, overrides, nover, &log, &s) != STATUS_OK) {
         return -1.0;
     }
-    const run_options_t opt = {out, steps, 1, 1, NULL, NULL, NULL, lib_dir, 0.0, 0.0, NULL};
+    const run_options_t opt = {out, steps, 1, 1, NULL, NULL, NULL, lib_dir, 0.0, 0.0, NULL, tm};
     const double t0 = omp_get_wtime();
     const int rc = run_scene(s, &opt, &log);
     const double t = omp_get_wtime() - t0;
@@ -261,11 +262,13 @@ int bench_coupled(const char *scene, long steps, const char *lib_dir, int json)
      * pair from the same minute: this VM's speed drifts by 20%) */
     enum { PAIRS = 5 };
     double with = 1e300, without = 1e300, ratios[PAIRS];
+    run_times_t best[2] = {{0}}; /* the parts of the fastest run without [0] and with [1] bodies */
     for (int rep = 0; rep < PAIRS; rep++) {
         double t2[2];
         for (int k = 0; k < 2; k++) {
             const int bodies = (k + rep) % 2 == 0;
-            const double t = timed_run(scene, bodies ? as_given : no_bodies, bodies ? 1 : 3, steps, lib_dir, out);
+            run_times_t tm;
+            const double t = timed_run(scene, bodies ? as_given : no_bodies, bodies ? 1 : 3, steps, lib_dir, out, &tm);
             if (t < 0.0) {
                 fprintf(stderr, "coupler bench: the run of %s%s failed (see above)\n", scene,
                         bodies ? "" : " without bodies");
@@ -274,6 +277,9 @@ int bench_coupled(const char *scene, long steps, const char *lib_dir, int json)
                 return 1;
             }
             t2[bodies] = t;
+            if (t < (bodies ? with : without)) {
+                best[bodies] = tm;
+            }
         }
         with = fmin(with, t2[1]);
         without = fmin(without, t2[0]);
@@ -283,16 +289,25 @@ int bench_coupled(const char *scene, long steps, const char *lib_dir, int json)
     rmdir(dir);
     qsort(ratios, PAIRS, sizeof ratios[0], compare_doubles);
     const double median = ratios[PAIRS / 2];
+    const run_times_t *b = &best[1], *f = &best[0];
     if (json) {
         printf("{\"scene\": \"%s\", \"steps\": %ld, \"coupled_s\": %.6f, \"fluid_only_s\": %.6f, \"ratio\": %.4f, "
-               "\"ratio_median\": %.4f}\n",
-               scene, steps, with, without, with / without, median);
+               "\"ratio_median\": %.4f, \"coupled_parts_s\": {\"fluid\": %.6f, \"rigid\": %.6f, \"master\": %.6f, "
+               "\"startup\": %.6f, \"output\": %.6f}, \"fluid_only_parts_s\": {\"fluid\": %.6f, \"rigid\": %.6f, "
+               "\"master\": %.6f, \"startup\": %.6f, \"output\": %.6f}}\n",
+               scene, steps, with, without, with / without, median, b->fluid, b->rigid, b->master, b->startup,
+               b->output, f->fluid, f->rigid, f->master, f->startup, f->output);
     } else {
         printf("coupled run of %s, %ld steps, whole wall time (export, master, output; no field snapshots), %d "
                "pairs:\n"
                "  best: with its bodies %.3f s, without bodies (same grid and walls) %.3f s, ratio %.3f\n"
-               "  ratio within each pair: median %.3f (from %.3f to %.3f)\n",
-               scene, steps, PAIRS, with, without, with / without, median, ratios[0], ratios[PAIRS - 1]);
+               "  ratio within each pair: median %.3f (from %.3f to %.3f)\n"
+               "  parts of the two best runs, with / without bodies (s): fluid component %.3f / %.3f (%+.3f, x %.3f: "
+               "the sphere stages), rigid component %.3f / %.3f, master %.3f / %.3f (of it start-up %.3f / "
+               "%.3f, output %.3f / %.3f)\n",
+               scene, steps, PAIRS, with, without, with / without, median, ratios[0], ratios[PAIRS - 1], b->fluid,
+               f->fluid, b->fluid - f->fluid, b->fluid / fmax(f->fluid, 1e-9), b->rigid, f->rigid, b->master,
+               f->master, b->startup, f->startup, b->output, f->output);
     }
     return 0;
 }

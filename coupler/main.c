@@ -379,7 +379,7 @@ static int run_main(int argc, char **argv)
         char lib_dir[4096];
         fmu_lib_dir(lib_dir, sizeof lib_dir);
         run_options_t opt = {output,    steps,     quiet,   (int)every, log_calls,       fluid_fmu,
-                             rigid_fmu, lib_dir,   checkpoint, checkpoint_every, restart};
+                             rigid_fmu, lib_dir,   checkpoint, checkpoint_every, restart, NULL};
         rc = run_scene(scene, &opt, &log);
     }
     scene_free(scene);

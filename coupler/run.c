@@ -520,6 +520,9 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     }
     const long cf = fmu_calls_total(m.fluid), cr = m.rigid != NULL ? fmu_calls_total(m.rigid) : 0;
     const double mlups = ncells * k_lbm * (double)nsteps / fmax(wf, 1e-9) / 1e6;
+    if (opt->times != NULL) {
+        *opt->times = (run_times_t){wf, wr, wall - wf - wr, wstart, wout, wall};
+    }
     st = output_attr(out, "wall_time_fluid", wf);
     st = status_worst(st, output_attr(out, "wall_time_rigid", wr));
     st = status_worst(st, output_attr(out, "wall_time_master", wall - wf - wr));

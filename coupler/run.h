@@ -12,6 +12,13 @@
 
 #include "../common/scene.h"
 
+/* The wall times of a run in seconds, as its output's wall_time_* attributes
+ * (DESIGN section 5): the fluid and rigid FMUs' steps, the master's share
+ * (start-up and output included), of it start-up and output, and the whole. */
+typedef struct {
+    double fluid, rigid, master, startup, output, total;
+} run_times_t;
+
 typedef struct {
     const char *output;        /* .h5 path */
     long steps;                /* > 0: this many communication steps instead of run.end_time */
@@ -24,6 +31,7 @@ typedef struct {
     double checkpoint_t1;      /* > 0: checkpoint test (save at t1, run, restore, run, compare) */
     double checkpoint_every;   /* > 0: a checkpoint every this many simulated seconds */
     const char *restart;       /* NULL, or the checkpoint to continue from (appending to output) */
+    run_times_t *times;        /* NULL, or set to the run's wall times when it ends (coupler bench) */
 } run_options_t;
 
 /* Returns 0 on success, 1 on failure (messages already logged), 128 + the

@@ -195,8 +195,20 @@ def test_bench_coupled_json(coupler):
     p = run("bench", "--coupled", MODELS / "sinking_sphere.yaml", "--steps", "3", "--json")
     assert p.returncode == 0, p.stderr
     r = json.loads(p.stdout.strip().splitlines()[-1])
-    assert set(r) == {"scene", "steps", "coupled_s", "fluid_only_s", "ratio", "ratio_median"}
+    assert set(r) == {"scene", "steps", "coupled_s", "fluid_only_s", "ratio", "ratio_median", "coupled_parts_s",
+                      "fluid_only_parts_s"}
     assert r["steps"] == 3 and r["coupled_s"] > 0 and r["fluid_only_s"] > 0
     # times printed to 1e-6 s, the ratio to 1e-4
     assert r["ratio"] == pytest.approx(r["coupled_s"] / r["fluid_only_s"], abs=1e-4 + 1e-5 / r["fluid_only_s"])
     assert math.isfinite(r["ratio_median"]) and r["ratio_median"] > 0
+    # the parts of the best run of each kind (the output's wall_time_* attributes): the fluid, rigid and
+    # master parts make up the run the master timed, inside the bench's own timing of it (which adds
+    # reading the scene); start-up and output are parts of the master's share; no rigid FMU without bodies
+    for kind in ("coupled", "fluid_only"):
+        parts, whole = r[kind + "_parts_s"], r[kind + "_s"]
+        assert set(parts) == {"fluid", "rigid", "master", "startup", "output"}
+        assert all(v >= 0 for v in parts.values()), parts
+        assert parts["fluid"] > 0 and parts["startup"] > 0
+        assert 0.5 * whole < parts["fluid"] + parts["rigid"] + parts["master"] <= whole + 2e-6, (parts, whole)
+        assert parts["startup"] + parts["output"] <= parts["master"] + 2e-6, parts
+    assert r["fluid_only_parts_s"]["rigid"] == 0 and r["coupled_parts_s"]["rigid"] > 0
