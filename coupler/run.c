@@ -51,6 +51,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #define CAT "run"
@@ -510,6 +511,16 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         }
         cp.mismatches = differ;
     }
+    /* the peak resident set of the process (Linux: kilobytes), the largest over the ranks */
+    struct rusage ru;
+    long rss_kb = getrusage(RUSAGE_SELF, &ru) == 0 ? ru.ru_maxrss : 0;
+    if (mpi_env_size() > 1) {
+        int kb = rss_kb > INT_MAX ? INT_MAX : (int)rss_kb;
+        if (mpi_env_max(&kb, log) != STATUS_OK) {
+            goto stopped;
+        }
+        rss_kb = kb;
+    }
     /* wall times of the whole run, the interrupted parts before a restart included */
     const double wall = restart.wall[2] + omp_get_wtime() - wall0, wf = restart.wall[0] + fmu_step_seconds(m.fluid);
     const double wr = restart.wall[1] + (m.rigid != NULL ? fmu_step_seconds(m.rigid) : 0.0);
@@ -532,6 +543,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     st = status_worst(st, output_attr(out, "exchange_every", k_lbm));
     st = status_worst(st, output_attr(out, "communication_step", h));
     st = status_worst(st, output_attr(out, "mlups", mlups));
+    st = status_worst(st, output_attr(out, "peak_rss_bytes", 1024.0 * (double)rss_kb));
     st = status_worst(st, output_attr_string(out, "fmi_calls_fluid", jf));
     if (m.rigid != NULL) {
         st = status_worst(st, output_attr_string(out, "fmi_calls_rigid", jr));
@@ -550,6 +562,8 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         printf(" (no rigid.fmu: no free bodies)");
     }
     printf("\n");
+    printf("  memory: peak resident set %.1f MB%s\n", 1024.0 * (double)rss_kb / 1e6,
+           mpi_env_size() > 1 ? " (the largest rank)" : "");
     const double vmax = m.row[m.o_vmax];
     printf("  fluid: largest speed %.6g m/s (Mach %.3g)\n", vmax, vmax / units_velocity(&m.un) * sqrt(3.0));
     summary_bodies(scene, m.ns, m.ibody, &m.row[R_VEL * 3 * m.ns]);

@@ -188,6 +188,27 @@ def test_bench_json(coupler):
         assert b == pytest.approx(want, rel=0.005), (s, p)  # and the small lists of the walls
 
 
+def test_peak_resident_set_is_reported(coupler, tmp_path):
+    """`coupler run` reports the process's peak resident set (summary line, root attribute
+    peak_rss_bytes). three_agglomerates' populations (401.7 MB by `coupler check`) are written
+    at the start, so they are resident: the peak holds them plus what the process itself needs
+    (libraries, HDF5, the FMUs: some 60 MB measured), not much more."""
+    import re
+    scene = MODELS / "three_agglomerates.yaml"
+    c = run("check", scene)
+    assert c.returncode == 0, c.stderr
+    fluid_mb = float(re.search(r"memory\s+([0-9.]+) MB", c.stdout).group(1))
+    out = tmp_path / "ta.h5"
+    p = run("run", scene, "-o", out, "--steps", "2", "--set", "run.fields=false")
+    assert p.returncode == 0, p.stderr
+    line = re.search(r"memory: peak resident set ([0-9.]+) MB", p.stdout)
+    assert line, p.stdout
+    with h5py.File(out, "r") as f:
+        rss = float(f.attrs["peak_rss_bytes"])
+    assert float(line.group(1)) == pytest.approx(rss / 1e6, abs=0.051)
+    assert fluid_mb * 1e6 <= rss <= fluid_mb * 1e6 + 300e6, (rss, fluid_mb)
+
+
 def test_bench_coupled_json(coupler):
     """`bench --coupled`: the best of each kind of run, their ratio, and the median of the
     ratios within the pairs of runs."""
