@@ -85,7 +85,7 @@ typedef struct {
         const double cu = (CU);                                                    \
         const double fp = 0.5 * (V(f##k) + V(fb##k));                              \
         const double fm = 0.5 * (V(f##k) - V(fb##k));                              \
-        const double eqp = (W) * rho * (1.0 + 4.5 * cu * cu - usq15);              \
+        const double eqp = SHIFT((W) * rho * (1.0 + 4.5 * cu * cu - usq15), W);    \
         const double eqm = (W) * rho * 3.0 * cu;                                   \
         double np = fp - wp * (fp - eqp), nm = fm - wm * (fm - eqm);               \
         if (forced) { /* the same additions, left to right, as one expression */   \
@@ -102,31 +102,25 @@ typedef struct {
         }                                                                          \
     } while (0)
 
-/* V(name): the population of the block row name at x, as a double. */
+/* V(name): the population of the block row name at x, as a double. With
+ * single-precision storage a row holds f_q - w_q (README "Speed and memory"),
+ * and the collision works on those deviations throughout: the density is
+ * 1 + their sum, the equilibria enter shifted by their weight (SHIFT), and
+ * the results are stored as they come out. TRT relaxes each part towards its
+ * equilibrium, so the same shift on both sides leaves it unchanged: n+ - w =
+ * (f+ - w) - w+ ((f+ - w) - (e+ - w)), n- and the forcing terms carry no
+ * shift. The weight is thus added and subtracted once per pair instead of
+ * once per population on the way in and again on the way out. In double the
+ * macros leave every expression as it was. */
 #if defined(KERNEL_SINGLE)
-#define V(name) ((double)(name)[x] + W_##name)
+#define V(name) ((double)(name)[x])
+#define SHIFT(e, w) ((e) - (w))
+#define RHO(sum) (1.0 + (sum))
 #else
 #define V(name) ((name)[x])
+#define SHIFT(e, w) (e)
+#define RHO(sum) (sum)
 #endif
-#define W_f0 (1.0 / 3.0)
-#define W_f1 (1.0 / 18.0)
-#define W_f2 (1.0 / 18.0)
-#define W_f3 (1.0 / 18.0)
-#define W_fb1 (1.0 / 18.0)
-#define W_fb2 (1.0 / 18.0)
-#define W_fb3 (1.0 / 18.0)
-#define W_f4 (1.0 / 36.0)
-#define W_f5 (1.0 / 36.0)
-#define W_f6 (1.0 / 36.0)
-#define W_f7 (1.0 / 36.0)
-#define W_f8 (1.0 / 36.0)
-#define W_f9 (1.0 / 36.0)
-#define W_fb4 (1.0 / 36.0)
-#define W_fb5 (1.0 / 36.0)
-#define W_fb6 (1.0 / 36.0)
-#define W_fb7 (1.0 / 36.0)
-#define W_fb8 (1.0 / 36.0)
-#define W_fb9 (1.0 / 36.0)
 
 /* always inlined: its vector code must stay inside the entry points of this
  * variant (kernel_dispatch.c; tests/python/test_fmu.py checks the FMU) */
@@ -142,13 +136,15 @@ static inline __attribute__((always_inline)) void collide_block(const consts_t *
                           int forced)
 {
 #if defined(KERNEL_SINGLE)
-#define OWN(row, w, val) ((row)[x] = (float)((val) - (w)))
+/* val is already the deviation f - w (SHIFT above); the block buffer, which
+ * the single-precision kernels do not use, would hold whole values */
+#define OWN(row, w, val) ((row)[x] = (float)(val))
 #define PUT(q, w, val)                                    \
     do {                                                  \
         if (direct) {                                     \
-            out[q][x] = (float)((val) - (w));             \
+            out[q][x] = (float)(val);                     \
         } else {                                          \
-            buf[q][x] = (val);                            \
+            buf[q][x] = (val) + (w);                      \
         }                                                 \
     } while (0)
 #else
@@ -191,8 +187,8 @@ static inline __attribute__((always_inline)) void collide_block(const consts_t *
         const double d1 = (double)f1[x] - fb1[x], d2 = (double)f2[x] - fb2[x], d3 = (double)f3[x] - fb3[x];
         const double d4 = (double)f4[x] - fb4[x], d5 = (double)f5[x] - fb5[x], d6 = (double)f6[x] - fb6[x];
         const double d7 = (double)f7[x] - fb7[x], d8 = (double)f8[x] - fb8[x], d9 = (double)f9[x] - fb9[x];
-        const double rho = V(f0) + V(f1) + V(fb1) + V(f2) + V(fb2) + V(f3) + V(fb3) + V(f4) + V(fb4) + V(f5) +
-                           V(fb5) + V(f6) + V(fb6) + V(f7) + V(fb7) + V(f8) + V(fb8) + V(f9) + V(fb9);
+        const double rho = RHO(V(f0) + V(f1) + V(fb1) + V(f2) + V(fb2) + V(f3) + V(fb3) + V(f4) + V(fb4) + V(f5) +
+                               V(fb5) + V(f6) + V(fb6) + V(f7) + V(fb7) + V(f8) + V(fb8) + V(f9) + V(fb9));
         const double jx = d1 + d4 + d5 + d6 + d7;
         const double jy = d2 + d4 - d5 + d8 + d9;
         const double jz = d3 + d6 - d7 + d8 - d9;
@@ -202,7 +198,7 @@ static inline __attribute__((always_inline)) void collide_block(const consts_t *
         const double uz = forced ? (jz + 0.5 * fz) * inv : jz * inv;
         const double usq15 = 1.5 * (ux * ux + uy * uy + uz * uz);
         const double uf3 = forced ? 3.0 * (ux * fx + uy * fy + uz * fz) : 0.0;
-        const double eq0 = (1.0 / 3.0) * rho * (1.0 - usq15);
+        const double eq0 = SHIFT((1.0 / 3.0) * rho * (1.0 - usq15), 1.0 / 3.0);
         double n0 = V(f0) - wp * (V(f0) - eq0);
         if (forced) {
             n0 -= gp * (1.0 / 3.0) * uf3;
@@ -227,6 +223,8 @@ static inline __attribute__((always_inline)) void collide_block(const consts_t *
 #undef PUT
 #undef OWN
 #undef V
+#undef SHIFT
+#undef RHO
 
 #if !defined(KERNEL_SINGLE)
 /* Copies the block buffer to dst. With SSE2/AVX the stores are non-temporal:
