@@ -57,23 +57,6 @@ static inline int lb_crossing(int a, int dir, int qs[5])
  * it changes no sum that starts at +0 (such a sum is never -0). */
 #define LB_ADD(s, k, v) ((k) > 0 ? (void)((s) += (v)) : (k) < 0 ? (void)((s) -= (v)) : (void)0)
 
-/* Density and momentum of the populations of cell i in a structure-of-arrays
- * field with ncells cells per direction (grid.h). */
-static inline double lb_moments(const double *f, size_t ncells, size_t i, double j[3])
-{
-    double rho = 0.0;
-    j[0] = j[1] = j[2] = 0.0;
-#pragma GCC unroll 19
-    for (int q = 0; q < LB_Q; q++) {
-        const double v = f[(size_t)q * ncells + i];
-        rho += v;
-        LB_ADD(j[0], lb_c[q][0], v);
-        LB_ADD(j[1], lb_c[q][1], v);
-        LB_ADD(j[2], lb_c[q][2], v);
-    }
-    return rho;
-}
-
 /* Second-order equilibrium (the paper's Eq. 4 with c = 1). */
 static inline double lb_feq(int q, double rho, double ux, double uy, double uz)
 {
