@@ -137,6 +137,19 @@ def settling_k(h5, k, tail=0.2):
     return Kv / SA_K_HALF - 1.0
 
 
+def run_sphere_report(item, tmp, tau, precision="double"):
+    """`sphere_report KIND` (the drag of a fixed sphere or the torque of a rotating one, tests/fluid/
+    drag_report.h) for item = (kind, scheme, collision, radii, positions) at one tau and storage
+    precision, on one thread, in a folder of its own under tmp: the rows of its CSV."""
+    kind, scheme, coll, radii, npos = item
+    d = os.path.join(tmp, "%s_%s_%s_%s_tau%g_%s" % (kind, scheme, coll, "-".join(map(str, radii)), tau, precision))
+    os.makedirs(d, exist_ok=True)
+    sh([os.path.join(BUILD, "sphere_report"), kind, d, "schemes=" + scheme, "collisions=" + coll,
+        "radii=" + ",".join(map(str, radii)), "taus=%g" % tau, "positions=%d" % npos, "precision=" + precision],
+       env=ONE_THREAD)
+    return read_csv(os.path.join(d, kind + ".csv"))
+
+
 def run_scene(text, name, sets, tmp):
     """Writes the scene text to TMP/NAME.yaml and runs it on one thread with the --set options:
     (CompletedProcess, seconds, path of its output)."""

@@ -10,8 +10,8 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from report_common import (BUILD, ONE_THREAD, SA_K_HALF, SCHEMES, loglog, pool_map, read_csv, run_scene,
-                           save, settling_k, settling_scene, sh, slope, write_csv)
+from report_common import (SA_K_HALF, SCHEMES, loglog, pool_map, run_scene, run_sphere_report, save, settling_k,
+                           settling_scene, slope, write_csv)
 
 
 def fluid_plan(quick):
@@ -29,17 +29,6 @@ def fluid_plan(quick):
         rot = [("rotation", s, c, [3, 4, 6, 8, 12], 3) for s in SCHEMES for c in ("trt",)]
         rot += [("rotation", s, "bgk", [3, 4, 6, 8], 3) for s in SCHEMES]
     return drag + rot
-
-
-def run_sphere_report(item, tmp):
-    kind, scheme, coll, radii, npos = item
-    d = os.path.join(tmp, "%s_%s_%s_%s" % (kind, scheme, coll, "-".join(map(str, radii))))
-    os.makedirs(d, exist_ok=True)
-    # BGK at tau 0.8 (TRT's drag does not depend on tau at fixed Lambda = 3/16, issue 11): with
-    # BGK the wall moves with tau, and multireflection is refused at tau 1 (omega- = 1)
-    sh([os.path.join(BUILD, "sphere_report"), kind, d, "schemes=" + scheme, "collisions=" + coll,
-        "radii=" + ",".join(map(str, radii)), "taus=0.8", "positions=%d" % npos], env=ONE_THREAD)
-    return read_csv(os.path.join(d, kind + ".csv"))
 
 
 def summarise(rows, errkey):
@@ -101,7 +90,9 @@ def fluid_conclusions(drag, orders):
 
 def section_fluid(out, tmp, quick, jobs):
     plan = fluid_plan(quick)
-    results = pool_map(lambda it: run_sphere_report(it, tmp), plan, jobs)
+    # BGK at tau 0.8 (TRT's drag does not depend on tau at fixed Lambda = 3/16, issue 11): with
+    # BGK the wall moves with tau, and multireflection is refused at tau 1 (omega- = 1)
+    results = pool_map(lambda it: run_sphere_report(it, tmp, 0.8), plan, jobs)
     drag_rows = [r for it, rs in zip(plan, results) if it[0] == "drag" for r in rs]
     rot_rows = [r for it, rs in zip(plan, results) if it[0] == "rotation" for r in rs]
     write_csv(os.path.join(out, "drag_positions.csv"), drag_rows, list(drag_rows[0].keys()))

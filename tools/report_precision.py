@@ -16,7 +16,7 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from report_common import (BUILD, COUPLER, ONE_THREAD, ROOT, SA_K_HALF, pool_map, read_csv, run_scene, save,
+from report_common import (COUPLER, ONE_THREAD, ROOT, SA_K_HALF, pool_map, run_scene, run_sphere_report, save,
                            settling_k, settling_scene, sh, write_csv)
 
 PRECISIONS = ("double", "single")
@@ -26,11 +26,7 @@ def drag_runs(tmp, npos, jobs):
     """The steady drag of a fixed sphere (radius 4, tau 1, cli, TRT) at npos places in the cell,
     in both precisions: {precision: rows of sphere_report's drag.csv}."""
     def one(prec):
-        d = os.path.join(tmp, "precision_drag_" + prec)
-        os.makedirs(d, exist_ok=True)
-        sh([os.path.join(BUILD, "sphere_report"), "drag", d, "schemes=cli", "collisions=trt", "radii=4", "taus=1",
-            "positions=%d" % npos, "precision=" + prec], env=ONE_THREAD)
-        return read_csv(os.path.join(d, "drag.csv"))
+        return run_sphere_report(("drag", "cli", "trt", [4], npos), tmp, 1.0, prec)
     return dict(zip(PRECISIONS, pool_map(one, PRECISIONS, jobs)))
 
 
