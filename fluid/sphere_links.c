@@ -15,20 +15,28 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* delta of the ray x + t c_q, t in (0, 1], against a sphere of radius r
- * whose centre is at x - d; 0 if it starts inside or misses. */
-static inline __attribute__((always_inline)) double ray_delta(const double d[3], int q, double r)
+/* delta of the rays x + t c_q, t in (0, 1], for q = qs[0..n), against a
+ * sphere of radius r whose centre is at x - d; 0 where a ray starts inside
+ * or misses. Without a branch (the comparisons as bits, the square root
+ * of a non-negative number: -fno-math-errno), so that the rays are
+ * independent chains of a square root and a division, which the compiler
+ * puts side by side in vector registers and the core overlaps; where a ray
+ * hits, t is the value of the root itself, as a ray at a time gave it. */
+static inline __attribute__((always_inline)) void ray_deltas(const double d[3], const int *qs, int n, double r,
+                                                             double *out)
 {
-    const double cc = (double)(lb_c[q][0] * lb_c[q][0] + lb_c[q][1] * lb_c[q][1] + lb_c[q][2] * lb_c[q][2]);
-    const double b = d[0] * lb_c[q][0] + d[1] * lb_c[q][1] + d[2] * lb_c[q][2];
     const double c = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - r * r;
-    const double disc = b * b - cc * c;
-    if (c <= 0.0 || disc < 0.0) {
-        return 0.0; /* starts inside, or misses */
+#pragma omp simd
+    for (int j = 0; j < n; j++) {
+        const int q = qs[j];
+        const double cc = (double)(lb_c[q][0] * lb_c[q][0] + lb_c[q][1] * lb_c[q][1] + lb_c[q][2] * lb_c[q][2]);
+        const double b = d[0] * lb_c[q][0] + d[1] * lb_c[q][1] + d[2] * lb_c[q][2];
+        const double disc = b * b - cc * c;
+        /* smaller root, written to avoid cancellation */
+        const double t = c / (-b + sqrt(disc >= 0.0 ? disc : 0.0));
+        const int hit = (c > 0.0) & (disc >= 0.0) & (b < 0.0) & (t > 0.0) & (t <= 1.0 + 1e-12);
+        out[j] = hit ? (t < 1.0 ? t : 1.0) : 0.0;
     }
-    /* smaller root, written to avoid cancellation */
-    const double t = c / (-b + sqrt(disc));
-    return (b < 0.0 && t > 0.0 && t <= 1.0 + 1e-12) ? fmin(t, 1.0) : 0.0;
 }
 
 /* 1 when the cell k steps back along c_q from cell i at local X is fluid
@@ -321,15 +329,25 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                         near[nn++] = c;
                     }
                 }
+                /* the rays to k of all the cell's links first (in increasing
+                 * q, as the keys want): independent of each other, where one
+                 * link at a time waited on each square root and division */
+                int qs[LB_Q], nq = 0;
+                double dl[LB_Q];
                 for (; solid != 0; solid &= solid - 1) {
-                    const int q = __builtin_ctz(solid); /* in increasing q, as the keys want */
+                    qs[nq++] = __builtin_ctz(solid);
+                }
+                ray_deltas(dk, qs, nq, p->r, dl);
+                for (int jq = 0; jq < nq; jq++) {
+                    const int q = qs[jq];
                     /* Eq. 5: the nearest intersection over the candidates wins
                      * (ties to the lower index); a link of k must hit k first */
-                    double delta = ray_delta(dk, q, p->r);
+                    double delta = dl[jq];
                     int other = 0;
                     for (int j = 0; j < nn && !other; j++) {
                         const int c = near[j];
-                        const double t = ray_delta(dnear[j], q, sp->s[cand[c]].r);
+                        double t;
+                        ray_deltas(dnear[j], &q, 1, sp->s[cand[c]].r, &t);
                         other = t > 0.0 && (delta == 0.0 || t < delta || (t == delta && cand[c] < k));
                     }
                     if (other) {
