@@ -17,8 +17,13 @@
  *    the sphere surface from the face, the contact point lies on the face and
  *    the relative velocity is taken against the wall's own velocity (moving
  *    walls).
- * The visitor is O(N^2) in the spheres, like the rest of the contact code. */
+ * Pairs of two bodies whose spheres are all farther apart than the reach
+ * (body_bounds) are passed over without a distance each: agglomerates far
+ * from each other cost a test per body pair, and the visit O(N^2) trivial
+ * iterations rather than O(N^2) distances. */
 #include "rigid_internal.h"
+
+#include <string.h>
 
 static const char *const FACE_NAMES[6] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
 
@@ -103,16 +108,72 @@ static int visit_walls(rigid_t *r, const rigid_body_t *bodies, const double (*x)
     return bad;
 }
 
+/* Marks r->pair_far[A nb + B] for the body pairs none of whose sphere pairs
+ * visit_spheres would take. About a centre c_A (the mean of A's sphere
+ * centres; any point would do) every sphere i of A has |x_i - c_A| <= e_A
+ * and r_i <= m_A; for any periodic shift s, |x_j + s - x_i| >= |c_B + s -
+ * c_A| - e_A - e_B, and the smallest |c_B + s - c_A| is the nearest image
+ * per axis (the axes are independent). So when that distance exceeds e_A +
+ * e_B + m_A + m_B + reach, every pair fails visit_spheres' first test,
+ * |dv| <= r_i + r_j + reach; the margin of 1e-9 of the terms covers the
+ * rounding of either side. */
+static void body_bounds(rigid_t *r, const double (*x)[3], double reach)
+{
+    const int nb = r->nbodies;
+    double (*bd)[5] = r->pair_bound;
+    memset(bd, 0, (size_t)nb * sizeof *bd);
+    for (int i = 0; i < r->nspheres; i++) {
+        double *c = bd[r->spheres[i].body];
+        for (int a = 0; a < 3; a++) {
+            c[a] += x[i][a];
+        }
+        c[3] += 1.0; /* the count, for now */
+    }
+    for (int b = 0; b < nb; b++) {
+        for (int a = 0; a < 3 && bd[b][3] > 0.0; a++) {
+            bd[b][a] /= bd[b][3];
+        }
+        bd[b][3] = 0.0;
+    }
+    for (int i = 0; i < r->nspheres; i++) {
+        double *c = bd[r->spheres[i].body], d[3];
+        rv_sub(x[i], c, d);
+        c[3] = fmax(c[3], rv_norm(d));
+        c[4] = fmax(c[4], r->spheres[i].radius);
+    }
+    const rigid_config_t *cfg = &r->cfg;
+    for (int a = 0; a < nb; a++) {
+        r->pair_far[(size_t)a * nb + a] = 0;
+        for (int b = a + 1; b < nb; b++) {
+            double dv[3];
+            rv_sub(bd[b], bd[a], dv);
+            for (int k = 0; k < 3; k++) {
+                if (cfg->periodic[k]) {
+                    const double len = cfg->box_hi[k] - cfg->box_lo[k];
+                    dv[k] -= len * round(dv[k] / len);
+                }
+            }
+            const double dist = rv_norm(dv);
+            const double need = bd[a][3] + bd[b][3] + bd[a][4] + bd[b][4] + reach;
+            const int far = dist - need > 1e-9 * (dist + fabs(need) + fabs(reach));
+            r->pair_far[(size_t)a * nb + b] = r->pair_far[(size_t)b * nb + a] = (unsigned char)far;
+        }
+    }
+}
+
 int rigid_pairs_visit(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], double reach, rigid_pair_fn fn,
                       void *ctx)
 {
     int bad = 0;
+    const int nb = r->nbodies;
+    body_bounds(r, x, reach);
     for (int i = 0; i < r->nspheres; i++) {
         const rigid_sphere_t *si = &r->spheres[i];
         const rigid_body_t *bi = &bodies[si->body];
+        const unsigned char *far = r->pair_far + (size_t)si->body * nb;
         for (int j = i + 1; j < r->nspheres; j++) {
             const rigid_sphere_t *sj = &r->spheres[j];
-            if (sj->body == si->body || (bi->fixed && bodies[sj->body].fixed)) {
+            if (sj->body == si->body || (bi->fixed && bodies[sj->body].fixed) || far[sj->body]) {
                 continue;
             }
             bad |= visit_spheres(r, bodies, x, i, j, reach, fn, ctx);

@@ -29,6 +29,8 @@ void rigid_free(rigid_t *r)
     }
     rigid_contact_watch_free(r);
     free(r->scratch_bodies);
+    free(r->pair_bound);
+    free(r->pair_far);
     free(r->sx);
     free(r->sv);
     free(r->lub_rate);
@@ -76,6 +78,8 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     r->conn = calloc((size_t)r->conn_cap, sizeof *r->conn);
     r->section = calloc((size_t)r->conn_cap * ns, 1);
     r->touch = calloc(ns * ns, 1); /* nothing touches "before" t0: initial contacts may stick */
+    r->pair_bound = calloc(ns, sizeof *r->pair_bound);
+    r->pair_far = calloc(ns * ns, 1);
     r->sf = calloc(3 * ns, sizeof(double));
     r->st = calloc(3 * ns, sizeof(double));
     r->bf = calloc(3 * ns, sizeof(double));
@@ -86,13 +90,13 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     int *members = malloc(ns * sizeof(int)), *ids = malloc(ns * sizeof(int));
     double (*c)[3] = malloc(ns * sizeof *c), (*s)[3] = malloc(ns * sizeof *s), (*j)[9] = malloc(ns * sizeof *j);
     double *rad = malloc(ns * sizeof(double));
-    if (!r->spheres || !r->bodies || !r->scratch_bodies || !r->conn || !r->section || !r->touch || !r->sf || !r->st || !r->bf ||
+    if (!r->spheres || !r->bodies || !r->scratch_bodies || !r->conn || !r->section || !r->touch || !r->pair_bound || !r->pair_far || !r->sf || !r->st || !r->bf ||
         !r->bt || !r->sx || !r->sv || !r->lub_rate || !members || !ids || !c || !s || !j || !rad) {
         st = log_msg(log, STATUS_ERROR, RIGID_CAT,
                      "out of memory for the arrays of %zu spheres and %d connections (about %.4g MB: the touch "
-                     "table grows as spheres^2)",
+                     "and body pair tables grow as spheres^2)",
                      ns, r->conn_cap,
-                     ((double)ns * (sizeof *r->spheres + 2 * sizeof *r->bodies + 15 * sizeof(double) + ns) +
+                     ((double)ns * (sizeof *r->spheres + 2 * sizeof *r->bodies + 20 * sizeof(double) + 2 * ns) +
                       (double)r->conn_cap * (sizeof *r->conn + ns)) / 1e6);
         goto cleanup;
     }

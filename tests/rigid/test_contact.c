@@ -23,8 +23,16 @@
  * twelve touch phases every run either rebounds at most 5% faster than it
  * came or is stopped by the watch with the pair, the ratio, the contact time
  * against the step and the remedies, and at least one is stopped; with the
- * contact resolved (h omega0 = 0.3, 10 steps) none is. */
+ * contact resolved (h omega0 = 0.3, 10 steps) none is.
+ *
+ * Pair visit (pairs.c): the pairs the contact and lubrication laws see are
+ * exactly those of the definition, spheres of two bodies whose nearest
+ * periodic images are within r_i + r_j + reach, although whole body pairs
+ * are passed over by their bounds: 300 random placements in a box periodic
+ * along x and y, bodies of one to three spheres, three reaches. */
 #include "test_rigid_util.h"
+
+#include "../../rigid/rigid_internal.h"
 
 typedef struct {
     double tc, e; /* measured contact time and restitution */
@@ -251,6 +259,110 @@ static void test_energy_growth_detected(void)
     }
 }
 
+typedef struct {
+    int n, ns;
+    unsigned char *seen; /* ns x ns */
+} pair_log_t;
+
+static int log_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t *p, void *ctx)
+{
+    (void)r;
+    (void)bodies;
+    pair_log_t *l = ctx;
+    if (p->j >= 0) {
+        l->seen[p->i * l->ns + p->j]++;
+        l->n++;
+    }
+    return 0;
+}
+
+static double unit_rand(unsigned long long *s)
+{
+    *s = *s * 6364136223846793005ULL + 1442695040888963407ULL;
+    return (double)(*s >> 11) / 9007199254740992.0;
+}
+
+static void test_pair_visit_exact(void)
+{
+    enum { NB = 8, MAXS = 3 * NB };
+    const double L = 10.0;
+    unsigned long long seed = 12345;
+    long visited = 0, across = 0, skipped = 0;
+    for (int trial = 0; trial < 100; trial++) {
+        rigid_sphere_cfg_t s[MAXS];
+        rigid_body_cfg_t b[NB];
+        int ns = 0;
+        for (int k = 0; k < NB; k++) {
+            b[k] = (rigid_body_cfg_t){1000.0, {0, 0, 0}, {0, 0, 0}, k == 0 && trial % 2 == 0};
+            const int m = 1 + (int)(3.0 * unit_rand(&seed));
+            for (int q = 0; q < m; q++) { /* a chain along x, each sphere overlapping the last */
+                s[ns] = (rigid_sphere_cfg_t){{1.0 + 0.7 * q, 1.0 + k, 5.0}, 0.5, k};
+                ns++;
+            }
+        }
+        rigid_config_t cfg = test_cfg(ns, s, NB, b, 0, NULL);
+        cfg.periodic[0] = cfg.periodic[1] = 1;
+        cfg.walls[2][0] = cfg.walls[2][1] = 1;
+        for (int a = 0; a < 3; a++) {
+            cfg.box_lo[a] = 0.0;
+            cfg.box_hi[a] = L;
+        }
+        rigid_t *r = NULL;
+        CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &r), STATUS_OK);
+        double x[MAXS][3], rad[MAXS];
+        unsigned char seen[MAXS * MAXS];
+        for (int i = 0; i < ns; i++) {
+            /* a body's spheres near each other, the bodies anywhere */
+            const int k = s[i].body;
+            const double c[3] = {L * fmod(0.37 * k + 0.11 * trial, 1.0), L * fmod(0.53 * k + 0.07 * trial, 1.0), 5.0};
+            for (int a = 0; a < 3; a++) {
+                x[i][a] = c[a] + (a == 2 ? 3.0 : 1.5) * (unit_rand(&seed) - 0.5) + (a < 2 ? 2.0 * unit_rand(&seed) : 0.0);
+            }
+            rad[i] = 0.2 + 0.6 * unit_rand(&seed);
+            r->spheres[i].radius = rad[i]; /* the visit reads the radii from the instance */
+        }
+        const double reaches[3] = {0.0, 0.3, 1.5};
+        for (int ri = 0; ri < 3; ri++) {
+            memset(seen, 0, sizeof seen);
+            pair_log_t lg = {0, ns, seen};
+            rigid_pairs_visit(r, r->bodies, (const double (*)[3])x, reaches[ri], log_pair, &lg);
+            for (int i = 0; i < ns; i++) {
+                for (int j = i + 1; j < ns; j++) {
+                    int want = 0;
+                    const int bi = r->spheres[i].body, bj = r->spheres[j].body;
+                    if (bi != bj && !(r->bodies[bi].fixed && r->bodies[bj].fixed)) {
+                        double d2 = 0.0, raw2 = 0.0;
+                        for (int a = 0; a < 3; a++) {
+                            double d = x[j][a] - x[i][a];
+                            raw2 += d * d;
+                            if (a < 2) {
+                                d -= L * round(d / L);
+                            }
+                            d2 += d * d;
+                        }
+                        const double lim = rad[i] + rad[j] + reaches[ri];
+                        want = d2 <= lim * lim;
+                        across += want && raw2 > lim * lim;
+                    }
+                    CU_ASSERT_EQUAL(seen[i * ns + j], want);
+                    CU_ASSERT_EQUAL(seen[j * ns + i], 0);
+                    visited += want;
+                }
+            }
+            for (int a = 0; a < r->nbodies; a++) {
+                for (int c = a + 1; c < r->nbodies; c++) {
+                    skipped += r->pair_far[a * r->nbodies + c];
+                }
+            }
+        }
+        rigid_free(r);
+    }
+    /* the test met pairs across the periodic faces, and body pairs passed over */
+    CU_ASSERT(visited > 300);
+    CU_ASSERT(across > 30);
+    CU_ASSERT(skipped > 1000);
+}
+
 void test_contact_register(void)
 {
     CU_pSuite s = CU_add_suite("rigid_contact", NULL, NULL);
@@ -261,4 +373,5 @@ void test_contact_register(void)
     CU_add_test(s, "stiff contact: Verlet reports the instability", test_stiff_verlet_reports);
     CU_add_test(s, "stiff contact: CVODE BDF (dense, SPGMR) completes", test_stiff_cvode_bdf);
     CU_add_test(s, "energy growth in an unresolved contact (Verlet, h omega0 0.9) is stopped", test_energy_growth_detected);
+    CU_add_test(s, "pair visit: exactly the pairs within reach (nearest image), body pairs passed over", test_pair_visit_exact);
 }
