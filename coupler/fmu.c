@@ -72,6 +72,7 @@ struct fmu {
     char *label, *dir, *identifier, *guid;
     fmu_var_t *vars;
     int nvars;
+    const fmu_var_t **by_name; /* the variables sorted by name, then order: fmu_find */
     void *lib;
     fmi_api_t api;
     fmi2CallbackFunctions *callbacks; /* alive as long as the instance */
@@ -83,6 +84,14 @@ struct fmu {
     long count[FMU_NCALLS];
     double step_seconds;
 };
+
+/* by name, then by place in the description */
+static int by_name_order(const void *a, const void *b)
+{
+    const fmu_var_t *u = *(const fmu_var_t *const *)a, *v = *(const fmu_var_t *const *)b;
+    const int c = strcmp(u->name, v->name);
+    return c != 0 ? c : (u > v) - (u < v);
+}
 
 /* ------------------------------------------------------------------------ */
 /* Unpacking                                                                 */
@@ -256,6 +265,21 @@ static status_t parse_description(fmu_t *f)
                 st = parse_variable(f, sv, &f->vars[f->nvars++], xml);
             }
         }
+    }
+    if (st == STATUS_OK) {
+        /* a master looks up every connected and observed variable by name:
+         * with thousands of them (a sphere's position, velocity and load each)
+         * a linear search per name made start-up quadratic */
+        f->by_name = malloc(((size_t)f->nvars + 1) * sizeof *f->by_name);
+        if (f->by_name == NULL) {
+            st = log_msg(&f->log, STATUS_FATAL, CAT, "%s: out of memory for the index of %d variables", f->label,
+                         f->nvars);
+            goto done;
+        }
+        for (int j = 0; j < f->nvars; j++) {
+            f->by_name[j] = &f->vars[j];
+        }
+        qsort(f->by_name, (size_t)f->nvars, sizeof *f->by_name, by_name_order);
     }
 done:
     free(version);
@@ -605,6 +629,7 @@ void fmu_free(fmu_t *f)
         free(f->vars[j].unit);
     }
     free(f->vars);
+    free(f->by_name);
     free(f->callbacks);
     free(f->identifier);
     free(f->guid);
@@ -619,14 +644,23 @@ const char *fmu_guid(const fmu_t *f) { return f->guid; }
 int fmu_nvars(const fmu_t *f) { return f->nvars; }
 const fmu_var_t *fmu_var(const fmu_t *f, int j) { return &f->vars[j]; }
 
+/* The first variable of that name in the model description (names are
+ * unique in a valid one): the lowest of the equal names in by_name. */
 const fmu_var_t *fmu_find(const fmu_t *f, const char *name)
 {
-    for (int j = 0; f != NULL && j < f->nvars; j++) {
-        if (strcmp(f->vars[j].name, name) == 0) {
-            return &f->vars[j];
+    if (f == NULL || f->by_name == NULL) {
+        return NULL;
+    }
+    size_t lo = 0, hi = (size_t)f->nvars; /* the first name >= name lies in [lo, hi] */
+    while (lo < hi) {
+        const size_t mid = lo + (hi - lo) / 2;
+        if (strcmp(f->by_name[mid]->name, name) < 0) {
+            lo = mid + 1;
+        } else {
+            hi = mid;
         }
     }
-    return NULL;
+    return lo < (size_t)f->nvars && strcmp(f->by_name[lo]->name, name) == 0 ? f->by_name[lo] : NULL;
 }
 
 long fmu_calls(const fmu_t *f, int which) { return f->count[which]; }
