@@ -20,7 +20,8 @@
  * Pairs of two bodies whose spheres are all farther apart than the reach
  * (body_bounds) are passed over without a distance each: agglomerates far
  * from each other cost a test per body pair, and the visit O(N^2) trivial
- * iterations rather than O(N^2) distances. */
+ * iterations rather than O(N^2) distances (when the bodies have two or more
+ * spheres on average; single spheres are tested pair by pair). */
 #include "rigid_internal.h"
 
 #include <string.h>
@@ -166,14 +167,19 @@ int rigid_pairs_visit(rigid_t *r, const rigid_body_t *bodies, const double (*x)[
 {
     int bad = 0;
     const int nb = r->nbodies;
-    body_bounds(r, x, reach);
+    /* bodies of two or more spheres on average: a body pair's test replaces
+     * several sphere pairs' (with single spheres it would only add to them) */
+    const int bounds = 2 * nb <= r->nspheres;
+    if (bounds) {
+        body_bounds(r, x, reach);
+    }
     for (int i = 0; i < r->nspheres; i++) {
         const rigid_sphere_t *si = &r->spheres[i];
         const rigid_body_t *bi = &bodies[si->body];
         const unsigned char *far = r->pair_far + (size_t)si->body * nb;
         for (int j = i + 1; j < r->nspheres; j++) {
             const rigid_sphere_t *sj = &r->spheres[j];
-            if (sj->body == si->body || (bi->fixed && bodies[sj->body].fixed) || far[sj->body]) {
+            if (sj->body == si->body || (bi->fixed && bodies[sj->body].fixed) || (bounds && far[sj->body])) {
                 continue;
             }
             bad |= visit_spheres(r, bodies, x, i, j, reach, fn, ctx);
