@@ -116,12 +116,12 @@ static int visit_walls(rigid_t *r, const rigid_body_t *bodies, const double (*x)
  * c_A| - e_A - e_B, and the smallest |c_B + s - c_A| is the nearest image
  * per axis (the axes are independent). So when that distance exceeds e_A +
  * e_B + m_A + m_B + reach, every pair fails visit_spheres' first test,
- * |dv| <= r_i + r_j + reach; the margin of 1e-9 of the terms covers the
- * rounding of either side. */
+ * |dv| <= r_i + r_j + reach; a margin of 1e-9 of the terms and of the
+ * centroids' own size covers the rounding of either side. */
 static void body_bounds(rigid_t *r, const double (*x)[3], double reach)
 {
     const int nb = r->nbodies;
-    double (*bd)[5] = r->pair_bound;
+    double (*bd)[6] = r->pair_bound;
     memset(bd, 0, (size_t)nb * sizeof *bd);
     for (int i = 0; i < r->nspheres; i++) {
         double *c = bd[r->spheres[i].body];
@@ -135,6 +135,7 @@ static void body_bounds(rigid_t *r, const double (*x)[3], double reach)
             bd[b][a] /= bd[b][3];
         }
         bd[b][3] = 0.0;
+        bd[b][5] = rv_norm(bd[b]);
     }
     for (int i = 0; i < r->nspheres; i++) {
         double *c = bd[r->spheres[i].body], d[3];
@@ -156,7 +157,7 @@ static void body_bounds(rigid_t *r, const double (*x)[3], double reach)
             }
             const double dist = rv_norm(dv);
             const double need = bd[a][3] + bd[b][3] + bd[a][4] + bd[b][4] + reach;
-            const int far = dist - need > 1e-9 * (dist + fabs(need) + fabs(reach));
+            const int far = dist - need > 1e-9 * (dist + fabs(need) + fabs(reach) + bd[a][5] + bd[b][5]);
             r->pair_far[(size_t)a * nb + b] = r->pair_far[(size_t)b * nb + a] = (unsigned char)far;
         }
     }

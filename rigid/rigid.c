@@ -96,7 +96,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
                      "out of memory for the arrays of %zu spheres and %d connections (about %.4g MB: the touch "
                      "and body pair tables grow as spheres^2)",
                      ns, r->conn_cap,
-                     ((double)ns * (sizeof *r->spheres + 2 * sizeof *r->bodies + 20 * sizeof(double) + 2 * ns) +
+                     ((double)ns * (sizeof *r->spheres + 2 * sizeof *r->bodies + 21 * sizeof(double) + 2 * ns) +
                       (double)r->conn_cap * (sizeof *r->conn + ns)) / 1e6);
         goto cleanup;
     }

@@ -109,9 +109,9 @@ struct rigid {
     long nforces;           /* force evaluations so far (diagnostics; not part of the state) */
     rigid_body_t *scratch_bodies;
     /* the pair visit's body bounds (pairs.c): per body a centre, the extent of
-     * its centres about it and its largest radius; per body pair 1 when none
-     * of their sphere pairs can come within reach */
-    double (*pair_bound)[5];
+     * its centres about it, its largest radius and the centre's norm; per
+     * body pair 1 when none of their sphere pairs can come within reach */
+    double (*pair_bound)[6];
     unsigned char *pair_far; /* nspheres^2 */
     /* the contact watch (contact_watch.c): not part of the saved state */
     rigid_watch_t *watch;
