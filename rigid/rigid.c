@@ -90,7 +90,8 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     int *members = malloc(ns * sizeof(int)), *ids = malloc(ns * sizeof(int));
     double (*c)[3] = malloc(ns * sizeof *c), (*s)[3] = malloc(ns * sizeof *s), (*j)[9] = malloc(ns * sizeof *j);
     double *rad = malloc(ns * sizeof(double));
-    if (!r->spheres || !r->bodies || !r->scratch_bodies || !r->conn || !r->section || !r->touch || !r->pair_bound || !r->pair_far || !r->sf || !r->st || !r->bf ||
+    if (!r->spheres || !r->bodies || !r->scratch_bodies || !r->conn || !r->section || !r->touch || !r->pair_bound ||
+        !r->pair_far || !r->sf || !r->st || !r->bf ||
         !r->bt || !r->sx || !r->sv || !r->lub_rate || !members || !ids || !c || !s || !j || !rad) {
         st = log_msg(log, STATUS_ERROR, RIGID_CAT,
                      "out of memory for the arrays of %zu spheres and %d connections (about %.4g MB: the touch "

@@ -318,7 +318,8 @@ static void test_pair_visit_exact(void)
             const int k = s[i].body;
             const double c[3] = {L * fmod(0.37 * k + 0.11 * trial, 1.0), L * fmod(0.53 * k + 0.07 * trial, 1.0), 5.0};
             for (int a = 0; a < 3; a++) {
-                x[i][a] = c[a] + (a == 2 ? 3.0 : 1.5) * (unit_rand(&seed) - 0.5) + (a < 2 ? 2.0 * unit_rand(&seed) : 0.0);
+                const double spread = (a == 2 ? 3.0 : 1.5) * (unit_rand(&seed) - 0.5);
+                x[i][a] = c[a] + spread + (a < 2 ? 2.0 * unit_rand(&seed) : 0.0);
             }
             rad[i] = 0.2 + 0.6 * unit_rand(&seed);
             r->spheres[i].radius = rad[i]; /* the visit reads the radii from the instance */
@@ -375,5 +376,6 @@ void test_contact_register(void)
     CU_add_test(s, "stiff contact: Verlet reports the instability", test_stiff_verlet_reports);
     CU_add_test(s, "stiff contact: CVODE BDF (dense, SPGMR) completes", test_stiff_cvode_bdf);
     CU_add_test(s, "energy growth in an unresolved contact (Verlet, h omega0 0.9) is stopped", test_energy_growth_detected);
-    CU_add_test(s, "pair visit: exactly the pairs within reach (nearest image), body pairs passed over", test_pair_visit_exact);
+    CU_add_test(s, "pair visit: exactly the pairs within reach (nearest image), body pairs passed over",
+                test_pair_visit_exact);
 }
