@@ -221,6 +221,141 @@ static void carry_in(link_list_t *list)
     list->ncarry = 0;
 }
 
+/* What a link's geometry gives it: delta, the scheme's coefficients, the
+ * wall point, the film partner (dk: x_f - c_k). */
+static inline void link_geometry(const spheres_t *sp, int k, sphere_link_t *l, const double dk[3], double delta,
+                                 int film, const int *cand, double (*rel)[3], int nc)
+{
+    l->delta = delta;
+    boundary_coefficients(sp->scheme, delta, l->have & 1, l->have >> 1 & 1, sp->omega_minus, &l->co);
+    for (int a = 0; a < 3; a++) {
+        l->rw[a] = dk[a] + delta * lb_c[l->q][a];
+    }
+    l->film = film ? film_partner(sp, k, l->rw, cand, rel, nc) : -1;
+}
+
+/* The cell (unwrapped global coordinates) of a link's key. */
+static void key_cell(uint64_t key, int X[3])
+{
+    X[0] = (int)(key >> 5 & 0xffff) - 32768;
+    X[1] = (int)(key >> 21 & 0xffff) - 32768;
+    X[2] = (int)(key >> 37) - 32768;
+}
+
+/* The candidates cand[0..nc) of sphere k without k itself, and their
+ * centres relative to c_k (minimum image) in rel: their count. */
+static int other_candidates(const spheres_t *sp, int k, int *cand, int nc, double (*rel)[3])
+{
+    int m_n = 0;
+    for (int c = 0; c < nc; c++) {
+        if (cand[c] != k) {
+            spheres_min_image(sp, sp->s[k].c, sp->s[cand[c]].c, rel[m_n]);
+            cand[m_n++] = cand[c];
+        }
+    }
+    return m_n;
+}
+
+/* The near candidates of a cell at dk from c_k (those a ray of length
+ * sqrt 2 can reach), in increasing index: their count. */
+static int near_candidates(const spheres_t *sp, const double dk[3], const int *cand, double (*rel)[3], int nc,
+                           int *near, double (*dnear)[3])
+{
+    int nn = 0;
+    for (int c = 0; c < nc; c++) {
+        const double dm[3] = {dk[0] + rel[c][0], dk[1] + rel[c][1], dk[2] + rel[c][2]};
+        const double rm = sp->s[cand[c]].r + 1.4143;
+        if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] <= rm * rm) {
+            memcpy(dnear[nn], dm, sizeof dm);
+            near[nn++] = c;
+        }
+    }
+    return nn;
+}
+
+/* Eq. 5 for a link of sphere k along c_q whose own ray gave dq: its
+ * delta, 0 when another near candidate's ray hits first (ties to the lower
+ * index), or -1 when no ray hits and x_b (global coordinates xb) is nearest
+ * to another sphere's surface. */
+static double link_delta(const spheres_t *sp, int k, int q, double dq, const int *cand,
+                         const int *near, double (*dnear)[3], int nn, const double xb[3])
+{
+    double delta = dq;
+    for (int j = 0; j < nn; j++) {
+        const int c = near[j];
+        double t;
+        ray_deltas(dnear[j], &q, 1, sp->s[cand[c]].r, &t);
+        if (t > 0.0 && (delta == 0.0 || t < delta || (t == delta && cand[c] < k))) {
+            return 0.0; /* another sphere's link */
+        }
+    }
+    if (delta == 0.0) {
+        /* no ray hits: x_b sits on a surface the ray only touches at t = 1 */
+        double d[3];
+        return spheres_nearest(sp, xb, d) == k ? 1.0 : -1.0;
+    }
+    return delta;
+}
+
+/* The links of sphere k for its new place when no flag changed since they
+ * were built in the same box: the same cells and directions (a link is a
+ * fluid cell and a solid neighbour, and those did not change) unless one
+ * changed hands between spheres, which this sphere or the other sees as a
+ * link it no longer wins: 0 then (the list is to be rebuilt), 1 when every
+ * link is still k's, its geometry as sphere_links would give it. */
+static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, int *cand, link_list_t *list)
+{
+    const sphere_t *p = &sp->s[k];
+    for (int a = 0; a < 3; a++) {
+        if ((int)floor(p->c[a] - p->r) - 1 != list->box_lo[a]) {
+            return 0; /* another box (a wrap across a periodic face): other keys */
+        }
+    }
+    const int nc0 = candidates(sp, k, cand);
+    double rel[nc0 > 0 ? nc0 : 1][3];
+    const int nc = other_candidates(sp, k, cand, nc0, rel);
+    const int film = film_possible(sp, k, cand, rel, nc);
+    int near[nc > 0 ? nc : 1];
+    double dnear[nc > 0 ? nc : 1][3];
+    const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
+    for (size_t n = 0; n < list->n;) {
+        int X[3];
+        key_cell(list->l[n].key, X);
+        const double dk[3] = {X[0] - p->c[0], X[1] - p->c[1], X[2] - p->c[2]};
+        const double dd = dk[0] * dk[0] + dk[1] * dk[1] + dk[2] * dk[2];
+        if (dd > reach2 || dd <= r2) {
+            return 0;
+        }
+        const int nn = near_candidates(sp, dk, cand, rel, nc, near, dnear);
+        size_t e = n;
+        int qs[LB_Q], nq = 0;
+        double dl[LB_Q];
+        for (; e < list->n && list->l[e].xf == list->l[n].xf; e++) {
+            qs[nq++] = list->l[e].q;
+        }
+        ray_deltas(dk, qs, nq, p->r, dl);
+        int Y[3] = {0, 0, 0};
+        for (int jq = 0; jq < nq; jq++) {
+            sphere_link_t *l = &list->l[n + (size_t)jq];
+            double xb[3] = {0.0, 0.0, 0.0};
+            if (dl[jq] == 0.0) {
+                spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y);
+                for (int a = 0; a < 3; a++) {
+                    xb[a] = Y[a] + sp->lo[a] + lb_c[l->q][a];
+                }
+            }
+            const double delta = link_delta(sp, k, l->q, dl[jq], cand, near, dnear, nn, xb);
+            if (delta <= 0.0) {
+                return 0;
+            }
+            l->fresh = (flags[l->xf] & FLAG_FRESH) != 0;
+            link_geometry(sp, k, l, dk, delta, film, cand, rel, nc);
+        }
+        n = e;
+    }
+    return 1;
+}
+
 static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, int k, int *cand,
                         link_list_t *list)
 {
@@ -233,17 +368,10 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
         list->ncarry = 0;
         return 1; /* no cell of this block links to it */
     }
-    int nc = candidates(sp, k, cand);
+    const int nc0 = candidates(sp, k, cand);
     /* the other candidates, and their centres relative to c_k (minimum image) */
-    double rel[nc > 0 ? nc : 1][3];
-    int m_n = 0;
-    for (int c = 0; c < nc; c++) {
-        if (cand[c] != k) {
-            spheres_min_image(sp, p->c, sp->s[cand[c]].c, rel[m_n]);
-            cand[m_n++] = cand[c];
-        }
-    }
-    nc = m_n;
+    double rel[nc0 > 0 ? nc0 : 1][3];
+    const int nc = other_candidates(sp, k, cand, nc0, rel);
     const int film = film_possible(sp, k, cand, rel, nc);
     int near[nc > 0 ? nc : 1];
     double dnear[nc > 0 ? nc : 1][3];
@@ -261,6 +389,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
         lo[a] = (int)floor(p->c[a] - p->r) - 1;
         hi[a] = (int)ceil(p->c[a] + p->r) + 1;
     }
+    memcpy(list->box_lo, lo, sizeof lo);
     int X[3], Y[3];
     for (X[2] = lo[2]; X[2] <= hi[2]; X[2]++) {
         for (X[1] = lo[1]; X[1] <= hi[1]; X[1]++) {
@@ -320,15 +449,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                 }
                 /* the candidates a ray of length <= sqrt 2 from this cell can
                  * reach (the same for every q), in increasing index */
-                int nn = 0;
-                for (int c = 0; c < nc && solid != 0; c++) {
-                    const double dm[3] = {dk[0] + rel[c][0], dk[1] + rel[c][1], dk[2] + rel[c][2]};
-                    const double rm = sp->s[cand[c]].r + 1.4143;
-                    if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] <= rm * rm) {
-                        memcpy(dnear[nn], dm, sizeof dm);
-                        near[nn++] = c;
-                    }
-                }
+                const int nn = solid != 0 ? near_candidates(sp, dk, cand, rel, nc, near, dnear) : 0;
                 /* the rays to k of all the cell's links first (in increasing
                  * q, as the keys want): independent of each other, where one
                  * link at a time waited on each square root and division */
@@ -342,26 +463,11 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     const int q = qs[jq];
                     /* Eq. 5: the nearest intersection over the candidates wins
                      * (ties to the lower index); a link of k must hit k first */
-                    double delta = dl[jq];
-                    int other = 0;
-                    for (int j = 0; j < nn && !other; j++) {
-                        const int c = near[j];
-                        double t;
-                        ray_deltas(dnear[j], &q, 1, sp->s[cand[c]].r, &t);
-                        other = t > 0.0 && (delta == 0.0 || t < delta || (t == delta && cand[c] < k));
-                    }
-                    if (other) {
+                    const double xb[3] = {Y[0] + sp->lo[0] + lb_c[q][0], Y[1] + sp->lo[1] + lb_c[q][1],
+                                          Y[2] + sp->lo[2] + lb_c[q][2]};
+                    const double delta = link_delta(sp, k, q, dl[jq], cand, near, dnear, nn, xb);
+                    if (delta <= 0.0) {
                         continue; /* another sphere's link */
-                    }
-                    if (delta == 0.0) {
-                        /* no ray hits: x_b sits on a surface the ray only touches at t = 1 */
-                        double d[3];
-                        const double xb[3] = {Y[0] + sp->lo[0] + lb_c[q][0], Y[1] + sp->lo[1] + lb_c[q][1],
-                                              Y[2] + sp->lo[2] + lb_c[q][2]};
-                        if (spheres_nearest(sp, xb, d) != k) {
-                            continue;
-                        }
-                        delta = 1.0;
                     }
                     if (!spheres_grow((void **)&links, &cap, nl + 1, sizeof *links)) {
                         list->l = links;
@@ -374,7 +480,6 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     l->has_pre = 0;
                     l->q = q;
                     l->sphere = k;
-                    l->delta = delta;
                     l->xf = l->xff = l->xfff = i; /* xff, xfff: replaced where they exist */
                     /* uncovered this step: refill.c replaced its populations, it has no
                      * pre-collision ones, and its links go without the multireflection
@@ -385,11 +490,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
                     const int have_ff = fluid_at(sp, g, flags, Y, deep, i, off[q], q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, deep, i, off[q], q, 2, &l->xfff);
-                    boundary_coefficients(sp->scheme, delta, have_ff, have_fff, sp->omega_minus, &l->co);
-                    for (int a = 0; a < 3; a++) {
-                        l->rw[a] = dk[a] + delta * lb_c[q][a];
-                    }
-                    l->film = film ? film_partner(sp, k, l->rw, cand, rel, nc) : -1;
+                    l->have = have_ff | have_fff << 1;
+                    link_geometry(sp, k, l, dk, delta, film, cand, rel, nc);
                 }
             }
         }
@@ -403,9 +505,28 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
 
 /* Every sphere's links, in parallel over spheres: each list is its own, so
  * the lists (and the loads summed from them) do not depend on the threads. */
-status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, const log_t *log)
+status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int unchanged, const log_t *log)
 {
     int failed = -1;
+    if (unchanged) {
+        /* no flag changed: each list refreshed in place; one link that changed
+         * hands (any sphere's) and all are rebuilt */
+        int kept = 1;
+#pragma omp parallel
+        {
+            int *cand = malloc((size_t)sp->n * sizeof *cand);
+#pragma omp for schedule(dynamic, 1) reduction(&& : kept)
+            for (int k = 0; k < sp->n; k++) {
+                kept = kept && cand != NULL && sphere_refresh(sp, flags, k, cand, &sp->lists[k]);
+            }
+            free(cand);
+        }
+        if (kept) {
+            sp->refreshed++;
+            return STATUS_OK;
+        }
+        sp->refresh_failed++;
+    }
 #pragma omp parallel
     {
         int *cand = malloc((size_t)sp->n * sizeof *cand);

@@ -410,6 +410,8 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     for (int k = 0; k < sp->n; k++) {
         memcpy(sp->s[k].cmap, sp->s[k].c, sizeof sp->s[k].c);
     }
+    /* links may be refreshed in place if no flag changes (below), on one rank */
+    int unchanged = !sp->first && !sp->stale && !sp->carried && !decomp_parallel(sp->dc);
     sp->stale = 0;
     int failed = -1;
 #pragma omp parallel for schedule(dynamic, 1)
@@ -432,6 +434,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         }
         int Xu[3];
         cell_coords(g, i, Xu);
+        unchanged = 0;
         if (!grid_is_interior(g, Xu[0], Xu[1], Xu[2])) {
             flags[i] = 0; /* a ghost cell of another rank's fluid: its owner refills it */
             continue;
@@ -464,6 +467,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
             const int was_solid = flags[i] & FLAG_SOLID;
             flags[i] = FLAG_SOLID;
             sp->solid[sp->nsolid++] = i;
+            unchanged = unchanged && was_solid;
             if (was_solid || sp->first) {
                 continue; /* most cells: solid before (and cell_coords divides) */
             }
@@ -518,7 +522,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     sp->first = 0;
     /* the uncovered cells keep FLAG_FRESH through the links (fluid cells for
      * them, marked as fresh on their links: sphere_links) */
-    status_t st = spheres_build_links(sp, g, flags, log);
+    status_t st = spheres_build_links(sp, g, flags, unchanged, log);
     for (size_t j = 0; j < sp->nfresh; j++) {
         flags[sp->fresh[j]] = 0;
     }

@@ -89,6 +89,7 @@ typedef struct {
     int film;             /* the film partner whose surface lies within the lubrication cut-off of the
                            * wall point: a sphere m >= 0, a domain face -2 - face; -1 none (spheres_fill) */
     int outer;            /* x_f lies in an outer row of the block: y or z at its faces (spheres_fill) */
+    int have;             /* x_f - c_q fluid: bit 0; x_f - 2 c_q too: bit 1 (boundary_coefficients) */
     double fnew;          /* outer: the value to write, held back (SPHERES_HOLD_OUTER) */
     double delta;
     /* multireflection: the pre-collision pair (f_q, f_qbar) of x_f for the
@@ -121,6 +122,7 @@ typedef struct {
     size_t ncarry, capcarry;
     size_t *inside;         /* the cells inside the sphere at the last map (spheres_map) */
     size_t ninside, capinside;
+    int box_lo[3];          /* the first cell of the box the links were built in (sphere_links.c) */
 } link_list_t;
 
 typedef struct spheres_s {
@@ -135,6 +137,7 @@ typedef struct spheres_s {
     size_t nfresh, cap_fresh;
     int *fresh_sphere;
     long covered_total, uncovered_total;
+    long refreshed, refresh_failed; /* maps whose links were refreshed in place, or tried and rebuilt */
     int periodic[3];      /* periodic axes of the domain (period N) */
     int N[3], lo[3], nb[3]; /* the whole grid, this block's first cell and cells */
     grid_t grid;          /* this block's grid */

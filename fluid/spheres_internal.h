@@ -66,7 +66,9 @@ int spheres_nearest(const spheres_t *sp, const double x[3], double d_out[3]);
 size_t spheres_list_pairs(const link_list_t *list, unsigned char *out);
 
 /* Every sphere's links for the current flags (sphere_links.c), in parallel
- * over spheres. */
-status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, const log_t *log);
+ * over spheres. unchanged: no flag changed since the lists were built (one
+ * rank): each list is first refreshed in place (its links' geometry for the
+ * spheres' new places), and rebuilt only if a link changed hands. */
+status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int unchanged, const log_t *log);
 
 #endif

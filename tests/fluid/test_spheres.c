@@ -21,6 +21,7 @@
 #include "../../common/coupling.h"
 #include "../../fluid/fluid_internal.h"
 #include "../../fluid/lattice.h"
+#include "../../fluid/spheres_internal.h"
 
 #include <CUnit/CUnit.h>
 #include "sangani_acrivos.h"
@@ -192,6 +193,79 @@ static void test_links_overlapping_and_periodic(void)
     sph[0].center[2] = 2.8;
     sph[1].center[2] = 2.4;
     check_links(&s);
+}
+
+/* The links refreshed in place (no flag changed) against the links built
+ * anew, field by field: three spheres of three bodies, two of them
+ * overlapping (links change hands at their seam), one cut by the periodic
+ * faces, moved by random hundredths of a cell; multireflection, filled each
+ * step so that the links keep pre-collision pairs. */
+static void test_links_refreshed_as_built(void)
+{
+    scene_t s = test_box(16, 14, 12, 1.0, COLLISION_TRT);
+    s.fluid.boundary_scheme = BOUNDARY_MULTIREFLECTION;
+    static scene_sphere_t sph[3] = {{{4.3, 5.2, 5.1}, 2.6}, {{8.4, 5.9, 5.4}, 2.2}, {{0.6, 12.7, 6.3}, 2.0}};
+    static scene_body_t body[3];
+    memset(body, 0, sizeof body);
+    for (int b = 0; b < 3; b++) {
+        body[b].nspheres = 1;
+        body[b].spheres = &sph[b];
+        body[b].density = 2.0;
+        body[b].motion = MOTION_FIXED;
+    }
+    s.nbodies = 3;
+    s.bodies = body;
+    fluid_t *fl = test_fluid(&s);
+    spheres_t *sp = &fl->spheres;
+    uint64_t seed = 12345;
+    long compared = 0, differing = 0;
+    for (int step = 0; step < 300; step++) {
+        for (int k = 0; k < sp->n; k++) {
+            for (int a = 0; a < 3; a++) {
+                seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+                sp->s[k].c[a] += 0.02 * ((double)(seed >> 11) / 9007199254740992.0 - 0.5);
+            }
+            spheres_wrap_centre(sp, sp->s[k].c);
+        }
+        const long refreshed = sp->refreshed;
+        pops_t p = fluid_pops(fl);
+        CU_ASSERT_EQUAL_FATAL(spheres_map(sp, &fl->g, fl->flags, &p, &fl->log), STATUS_OK);
+        spheres_fill(sp, &p, SPHERES_ALL);
+        if (sp->refreshed == refreshed) {
+            continue;
+        }
+        /* the refreshed lists, then built anew from the same flags */
+        size_t n[3];
+        sphere_link_t *kept[3];
+        for (int k = 0; k < sp->n; k++) {
+            n[k] = sp->lists[k].n;
+            kept[k] = malloc((n[k] + 1) * sizeof *kept[k]);
+            CU_ASSERT_PTR_NOT_NULL_FATAL(kept[k]);
+            memcpy(kept[k], sp->lists[k].l, n[k] * sizeof *kept[k]);
+        }
+        CU_ASSERT_EQUAL(spheres_build_links(sp, &fl->g, fl->flags, 0, &fl->log), STATUS_OK);
+        for (int k = 0; k < sp->n; k++) {
+            CU_ASSERT_EQUAL(sp->lists[k].n, n[k]);
+            for (size_t j = 0; j < n[k] && j < sp->lists[k].n; j++) {
+                const sphere_link_t *a = &kept[k][j], *b = &sp->lists[k].l[j];
+                const int same = a->key == b->key && a->q == b->q && a->sphere == b->sphere && a->xf == b->xf &&
+                                 a->xff == b->xff && a->xfff == b->xfff && a->have == b->have &&
+                                 a->delta == b->delta && memcmp(&a->co, &b->co, sizeof a->co) == 0 &&
+                                 memcmp(a->rw, b->rw, sizeof a->rw) == 0 && a->film == b->film &&
+                                 a->fresh == b->fresh && a->outer == b->outer && a->has_pre == b->has_pre &&
+                                 memcmp(a->pre, b->pre, sizeof a->pre) == 0;
+                differing += !same;
+                compared++;
+            }
+            free(kept[k]);
+        }
+    }
+    printf(" [%ld refreshed maps, %ld tried and rebuilt, %ld links compared]", sp->refreshed, sp->refresh_failed,
+           compared);
+    CU_ASSERT_EQUAL(differing, 0);
+    CU_ASSERT(sp->refreshed >= 20);     /* the refresh was exercised */
+    CU_ASSERT(sp->refresh_failed >= 1); /* and links changed hands without a flag changing */
+    fluid_free(fl);
 }
 
 /* ---- drag in a periodic array ------------------------------------------- */
@@ -630,6 +704,8 @@ void spheres_register_tests(int validate)
     CU_pSuite s = CU_add_suite("spheres", NULL, NULL);
     CU_add_test(s, "links and delta: single sphere, hand values", test_links_single_and_hand_values);
     CU_add_test(s, "links and delta: overlapping, periodic, at a wall", test_links_overlapping_and_periodic);
+    CU_add_test(s, "links refreshed in place = links built anew (seams, periodic faces, pairs)",
+                test_links_refreshed_as_built);
     CU_add_test(s, "periodic array r=4: Sangani-Acrivos within 0.5%, tau 0.6/1/1.5", test_periodic_array_r4);
     CU_add_test(s, "periodic array r=8: Sangani-Acrivos within 0.2%", test_periodic_array_r8);
     CU_add_test(s, "periodic array r=4 at 6 places in the cell: multireflection less place-dependent than cli",
