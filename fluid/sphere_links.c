@@ -221,17 +221,45 @@ static void carry_in(link_list_t *list)
     list->ncarry = 0;
 }
 
+/* The other spheres near sphere k, which its links' rays and wall points
+ * are tested against; per thread, room for every sphere (others_alloc). */
+typedef struct {
+    int *cand;          /* the other spheres within reach of k (candidates), increasing */
+    double (*rel)[3];   /* their centres relative to c_k (minimum image) */
+    int *near;          /* of one cell: those a ray of length sqrt 2 can reach (indices into cand) */
+    double (*dnear)[3]; /* and their centres relative to that cell */
+    int nc, film;       /* how many; 1 when a wall point of k can have a film partner */
+} others_t;
+
+static int others_alloc(others_t *o, int n)
+{
+    const size_t m = n > 0 ? (size_t)n : 1;
+    o->cand = malloc(m * sizeof *o->cand);
+    o->rel = malloc(m * sizeof *o->rel);
+    o->near = malloc(m * sizeof *o->near);
+    o->dnear = malloc(m * sizeof *o->dnear);
+    return o->cand != NULL && o->rel != NULL && o->near != NULL && o->dnear != NULL;
+}
+
+static void others_free(others_t *o)
+{
+    free(o->cand);
+    free(o->rel);
+    free(o->near);
+    free(o->dnear);
+}
+
 /* What a link's geometry gives it: delta, the scheme's coefficients, the
  * wall point, the film partner (dk: x_f - c_k). */
 static inline void link_geometry(const spheres_t *sp, int k, sphere_link_t *l, const double dk[3], double delta,
-                                 int film, const int *cand, double (*rel)[3], int nc)
+                                 const others_t *o)
 {
     l->delta = delta;
     boundary_coefficients(sp->scheme, delta, l->have & 1, l->have >> 1 & 1, sp->omega_minus, &l->co);
     for (int a = 0; a < 3; a++) {
         l->rw[a] = dk[a] + delta * lb_c[l->q][a];
     }
-    l->film = film ? film_partner(sp, k, l->rw, cand, rel, nc) : -1;
+    l->film = o->film ? film_partner(sp, k, l->rw, o->cand, o->rel, o->nc) : -1;
 }
 
 /* The cell (unwrapped global coordinates) of a link's key. */
@@ -242,50 +270,51 @@ static void key_cell(uint64_t key, int X[3])
     X[2] = (int)(key >> 37) - 32768;
 }
 
-/* The candidates cand[0..nc) of sphere k without k itself, and their
- * centres relative to c_k (minimum image) in rel: their count. */
-static int other_candidates(const spheres_t *sp, int k, int *cand, int nc, double (*rel)[3])
+/* The other spheres near sphere k (candidates without k itself), their
+ * centres relative to c_k, and whether its wall points can have a film. */
+static void others_find(const spheres_t *sp, int k, others_t *o)
 {
-    int m_n = 0;
+    const int nc = candidates(sp, k, o->cand);
+    o->nc = 0;
     for (int c = 0; c < nc; c++) {
-        if (cand[c] != k) {
-            spheres_min_image(sp, sp->s[k].c, sp->s[cand[c]].c, rel[m_n]);
-            cand[m_n++] = cand[c];
+        if (o->cand[c] != k) {
+            spheres_min_image(sp, sp->s[k].c, sp->s[o->cand[c]].c, o->rel[o->nc]);
+            o->cand[o->nc++] = o->cand[c];
         }
     }
-    return m_n;
+    o->film = film_possible(sp, k, o->cand, o->rel, o->nc);
 }
 
-/* The near candidates of a cell at dk from c_k (those a ray of length
- * sqrt 2 can reach), in increasing index: their count. */
-static int near_candidates(const spheres_t *sp, const double dk[3], const int *cand, double (*rel)[3], int nc,
-                           int *near, double (*dnear)[3])
+/* The others a ray of length sqrt 2 from a cell at dk from c_k can reach
+ * (the same for every q), in increasing index: their count. */
+static int near_candidates(const spheres_t *sp, const double dk[3], others_t *o)
 {
     int nn = 0;
-    for (int c = 0; c < nc; c++) {
-        const double dm[3] = {dk[0] + rel[c][0], dk[1] + rel[c][1], dk[2] + rel[c][2]};
-        const double rm = sp->s[cand[c]].r + 1.4143;
+    for (int c = 0; c < o->nc; c++) {
+        const double dm[3] = {dk[0] + o->rel[c][0], dk[1] + o->rel[c][1], dk[2] + o->rel[c][2]};
+        const double rm = sp->s[o->cand[c]].r + 1.4143;
         if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] <= rm * rm) {
-            memcpy(dnear[nn], dm, sizeof dm);
-            near[nn++] = c;
+            memcpy(o->dnear[nn], dm, sizeof dm);
+            o->near[nn++] = c;
         }
     }
     return nn;
 }
 
-/* Eq. 5 for a link of sphere k along c_q whose own ray gave dq: its
- * delta, 0 when another near candidate's ray hits first (ties to the lower
+/* Eq. 5 for a link of sphere k along c_q whose own ray gave dq, from a
+ * cell with nn near others (near_candidates): its delta, 0 when another
+ * near sphere's ray hits first (ties to the lower
  * index), or -1 when no ray hits and x_b (global coordinates xb) is nearest
  * to another sphere's surface. */
-static double link_delta(const spheres_t *sp, int k, int q, double dq, const int *cand,
-                         const int *near, double (*dnear)[3], int nn, const double xb[3])
+static double link_delta(const spheres_t *sp, int k, int q, double dq, const others_t *o, int nn,
+                         const double xb[3])
 {
     double delta = dq;
     for (int j = 0; j < nn; j++) {
-        const int c = near[j];
+        const int c = o->near[j];
         double t;
-        ray_deltas(dnear[j], &q, 1, sp->s[cand[c]].r, &t);
-        if (t > 0.0 && (delta == 0.0 || t < delta || (t == delta && cand[c] < k))) {
+        ray_deltas(o->dnear[j], &q, 1, sp->s[o->cand[c]].r, &t);
+        if (t > 0.0 && (delta == 0.0 || t < delta || (t == delta && o->cand[c] < k))) {
             return 0.0; /* another sphere's link */
         }
     }
@@ -303,7 +332,7 @@ static double link_delta(const spheres_t *sp, int k, int q, double dq, const int
  * changed hands between spheres, which this sphere or the other sees as a
  * link it no longer wins: 0 then (the list is to be rebuilt), 1 when every
  * link is still k's, its geometry as sphere_links would give it. */
-static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, int *cand, link_list_t *list)
+static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, others_t *o, link_list_t *list)
 {
     const sphere_t *p = &sp->s[k];
     for (int a = 0; a < 3; a++) {
@@ -311,12 +340,7 @@ static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, int *cand,
             return 0; /* another box (a wrap across a periodic face): other keys */
         }
     }
-    const int nc0 = candidates(sp, k, cand);
-    double rel[nc0 > 0 ? nc0 : 1][3];
-    const int nc = other_candidates(sp, k, cand, nc0, rel);
-    const int film = film_possible(sp, k, cand, rel, nc);
-    int near[nc > 0 ? nc : 1];
-    double dnear[nc > 0 ? nc : 1][3];
+    others_find(sp, k, o);
     const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
     for (size_t n = 0; n < list->n;) {
         int X[3];
@@ -326,7 +350,7 @@ static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, int *cand,
         if (dd > reach2 || dd <= r2) {
             return 0;
         }
-        const int nn = near_candidates(sp, dk, cand, rel, nc, near, dnear);
+        const int nn = near_candidates(sp, dk, o);
         size_t e = n;
         int qs[LB_Q], nq = 0;
         double dl[LB_Q];
@@ -344,19 +368,19 @@ static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, int *cand,
                     xb[a] = Y[a] + sp->lo[a] + lb_c[l->q][a];
                 }
             }
-            const double delta = link_delta(sp, k, l->q, dl[jq], cand, near, dnear, nn, xb);
+            const double delta = link_delta(sp, k, l->q, dl[jq], o, nn, xb);
             if (delta <= 0.0) {
                 return 0;
             }
             l->fresh = (flags[l->xf] & FLAG_FRESH) != 0;
-            link_geometry(sp, k, l, dk, delta, film, cand, rel, nc);
+            link_geometry(sp, k, l, dk, delta, o);
         }
         n = e;
     }
     return 1;
 }
 
-static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, int k, int *cand,
+static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, int k, others_t *o,
                         link_list_t *list)
 {
     const sphere_t *p = &sp->s[k];
@@ -368,13 +392,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
         list->ncarry = 0;
         return 1; /* no cell of this block links to it */
     }
-    const int nc0 = candidates(sp, k, cand);
-    /* the other candidates, and their centres relative to c_k (minimum image) */
-    double rel[nc0 > 0 ? nc0 : 1][3];
-    const int nc = other_candidates(sp, k, cand, nc0, rel);
-    const int film = film_possible(sp, k, cand, rel, nc);
-    int near[nc > 0 ? nc : 1];
-    double dnear[nc > 0 ? nc : 1][3];
+    others_find(sp, k, o);
     const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
     ptrdiff_t off[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
@@ -449,7 +467,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                 }
                 /* the candidates a ray of length <= sqrt 2 from this cell can
                  * reach (the same for every q), in increasing index */
-                const int nn = solid != 0 ? near_candidates(sp, dk, cand, rel, nc, near, dnear) : 0;
+                const int nn = solid != 0 ? near_candidates(sp, dk, o) : 0;
                 /* the rays to k of all the cell's links first (in increasing
                  * q, as the keys want): independent of each other, where one
                  * link at a time waited on each square root and division */
@@ -465,7 +483,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                      * (ties to the lower index); a link of k must hit k first */
                     const double xb[3] = {Y[0] + sp->lo[0] + lb_c[q][0], Y[1] + sp->lo[1] + lb_c[q][1],
                                           Y[2] + sp->lo[2] + lb_c[q][2]};
-                    const double delta = link_delta(sp, k, q, dl[jq], cand, near, dnear, nn, xb);
+                    const double delta = link_delta(sp, k, q, dl[jq], o, nn, xb);
                     if (delta <= 0.0) {
                         continue; /* another sphere's link */
                     }
@@ -491,7 +509,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     const int have_ff = fluid_at(sp, g, flags, Y, deep, i, off[q], q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, deep, i, off[q], q, 2, &l->xfff);
                     l->have = have_ff | have_fff << 1;
-                    link_geometry(sp, k, l, dk, delta, film, cand, rel, nc);
+                    link_geometry(sp, k, l, dk, delta, o);
                 }
             }
         }
@@ -514,12 +532,13 @@ status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int
         int kept = 1;
 #pragma omp parallel
         {
-            int *cand = malloc((size_t)sp->n * sizeof *cand);
+            others_t o;
+            const int have = others_alloc(&o, sp->n);
 #pragma omp for schedule(dynamic, 1) reduction(&& : kept)
             for (int k = 0; k < sp->n; k++) {
-                kept = kept && cand != NULL && sphere_refresh(sp, flags, k, cand, &sp->lists[k]);
+                kept = kept && have && sphere_refresh(sp, flags, k, &o, &sp->lists[k]);
             }
-            free(cand);
+            others_free(&o);
         }
         if (kept) {
             sp->refreshed++;
@@ -529,15 +548,16 @@ status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int
     }
 #pragma omp parallel
     {
-        int *cand = malloc((size_t)sp->n * sizeof *cand);
+        others_t o;
+        const int have = others_alloc(&o, sp->n);
 #pragma omp for schedule(dynamic, 1)
         for (int k = 0; k < sp->n; k++) {
-            if (cand == NULL || !sphere_links(sp, g, flags, k, cand, &sp->lists[k])) {
+            if (!have || !sphere_links(sp, g, flags, k, &o, &sp->lists[k])) {
 #pragma omp critical(spheres_links_failed)
                 failed = k;
             }
         }
-        free(cand);
+        others_free(&o);
     }
     sp->carried = 0;
     sp->nlinks = 0;
