@@ -262,6 +262,10 @@ static inline void link_geometry(const spheres_t *sp, int k, sphere_link_t *l, c
     l->film = o->film ? film_partner(sp, k, l->rw, o->cand, o->rel, o->nc) : -1;
 }
 
+/* The first cell along axis a of the box a sphere's links are built in
+ * (unwrapped global coordinates): it fixes the keys (link_key). */
+static inline int box_first(const sphere_t *p, int a) { return (int)floor(p->c[a] - p->r) - 1; }
+
 /* The cell (unwrapped global coordinates) of a link's key. */
 static void key_cell(uint64_t key, int X[3])
 {
@@ -336,7 +340,7 @@ static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, others_t *
 {
     const sphere_t *p = &sp->s[k];
     for (int a = 0; a < 3; a++) {
-        if ((int)floor(p->c[a] - p->r) - 1 != list->box_lo[a]) {
+        if (box_first(p, a) != list->box_lo[a]) {
             return 0; /* another box (a wrap across a periodic face): other keys */
         }
     }
@@ -404,7 +408,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
     size_t nl = 0, cap = list->cap;
     int lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
-        lo[a] = (int)floor(p->c[a] - p->r) - 1;
+        lo[a] = box_first(p, a);
         hi[a] = (int)ceil(p->c[a] + p->r) + 1;
     }
     memcpy(list->box_lo, lo, sizeof lo);
