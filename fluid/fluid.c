@@ -9,6 +9,7 @@
  * kernel, or from one array into the other, which then swap (layout.h).
  * Populations are SoA with one ghost layer (grid.h). */
 #include "fluid_internal.h"
+#include "../common/big_alloc.h"
 #include "../common/coupling.h"
 
 #include "initial_profile.h"
@@ -20,7 +21,8 @@
 #include <stdio.h>
 #include <string.h>
 
-/* One population array of values of esize bytes, 64-byte aligned; the cells
+/* One population array of values of esize bytes, 64-byte aligned (on huge
+ * pages where it is large: common/big_alloc.h); the cells
  * between ncells and the stride of each population are zeroed (they are
  * never read, but a saved state copies them). */
 static void *alloc_populations(const grid_t *g, size_t esize)
@@ -29,7 +31,7 @@ static void *alloc_populations(const grid_t *g, size_t esize)
         return NULL; /* more bytes than an address space holds */
     }
     const size_t body = (size_t)LB_Q * g->stride * esize;
-    unsigned char *m = aligned_alloc(64, (body + 63) / 64 * 64);
+    unsigned char *m = big_alloc(body);
     if (m != NULL) {
         for (int q = 0; q < LB_Q; q++) {
             memset(m + ((size_t)q * g->stride + g->ncells) * esize, 0, (g->stride - g->ncells) * esize);

@@ -10,6 +10,8 @@ void scene_bad_register_tests(void);
 
 /* Adds the "exact_sum" suite (test_exact_sum.c: common/exact_sum.h). */
 void exact_sum_register_tests(void);
+/* Adds the "big_alloc" suite (test_big_alloc.c: common/big_alloc.h). */
+void big_alloc_register_tests(void);
 
 /* The base scene of the scene tests (26 lines, loads with STATUS_OK). */
 extern const char scene_test_base[];
