@@ -1,13 +1,14 @@
 /* big_alloc.c — big_alloc.h.
  *
- * Why huge pages: a stream of the fluid's kernel crosses a 4 KiB page every
- * 512 doubles, and it runs 19 to 38 of them at once (in place or two
- * arrays), where the hardware prefetcher stops at each page's end and the
- * page walks of the scattered sphere and wall stages (19 arrays, a page each
- * per cell) miss the TLB. With 2 MiB pages (madvise mode of transparent huge
- * pages, the default of many distributions), `coupler bench` and the coupled
- * dual star ran 5-10% faster (README "Speed and memory"). The pages are
- * backed at first touch, so the parallel first touch of the fluid still puts
+ * Why huge pages can help: a stream of the fluid's kernel crosses a 4 KiB
+ * page every 512 doubles, and it runs 19 to 38 of them at once, where the
+ * hardware prefetcher stops at each page's end; the wall and sphere stages
+ * touch 19 arrays, a page each, per cell. Why they are not the default: on
+ * this project's VM the first touch of fresh 2 MiB pages was at times far
+ * slower than that of recycled 4 KiB ones (perf: clear_page in the huge
+ * page fault, 1.2 s of start-up for 262 MB), more than 200 steps of the
+ * dual star gained (README "Speed and memory"). The pages are backed at
+ * first touch either way, so the fluid's parallel first touch still puts
  * them near the threads that stream them. */
 #define _DEFAULT_SOURCE /* madvise, MADV_HUGEPAGE */
 #include "big_alloc.h"
@@ -28,7 +29,7 @@ void *big_alloc(size_t bytes)
     void *m = aligned_alloc(align, size);
 #if defined(MADV_HUGEPAGE)
     const char *env = getenv("AGGLO_HUGE_PAGES");
-    if (m != NULL && align == BIG_PAGE && (env == NULL || strcmp(env, "0") != 0)) {
+    if (m != NULL && align == BIG_PAGE && env != NULL && strcmp(env, "1") == 0) {
         (void)madvise(m, size, MADV_HUGEPAGE); /* advice: where it fails, 4 KiB pages */
     }
 #endif

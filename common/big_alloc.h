@@ -7,9 +7,9 @@
 #include <stddef.h>
 
 /* bytes of memory aligned to 64 bytes, freed with free(); NULL when there is
- * none. From 8 MiB on it is aligned to 2 MiB and the kernel is asked for
- * transparent huge pages (madvise MADV_HUGEPAGE; ignored where they are
- * off, and when AGGLO_HUGE_PAGES=0 is set, for comparisons). */
+ * none. From 8 MiB on it is aligned to 2 MiB, and with AGGLO_HUGE_PAGES=1 in
+ * the environment the kernel is asked for transparent huge pages for it
+ * (madvise MADV_HUGEPAGE; without effect where they are off). */
 void *big_alloc(size_t bytes);
 
 #endif

@@ -1,6 +1,7 @@
 /* test_big_alloc.c — common/big_alloc.h: the alignment the kernels rely on
- * (non-temporal stores need 64 bytes), every byte usable, and huge pages
- * where the system offers them in madvise or always mode. */
+ * (non-temporal stores need 64 bytes), every byte usable, and with
+ * AGGLO_HUGE_PAGES=1 huge pages where the system offers them (madvise or
+ * always mode). */
 #define _DEFAULT_SOURCE /* setenv, unsetenv */
 #include "../../common/big_alloc.h"
 
@@ -44,9 +45,9 @@ static int thp_offered(void)
 static void test_alignment_and_size(void)
 {
     const size_t sizes[] = {0, 1, 100, 4096, (8u << 20) - 8, 8u << 20, (8u << 20) + 24, 37u << 20};
-    for (int off = 0; off < 2; off++) {
-        if (off) {
-            setenv("AGGLO_HUGE_PAGES", "0", 1);
+    for (int on = 0; on < 2; on++) {
+        if (on) {
+            setenv("AGGLO_HUGE_PAGES", "1", 1);
         }
         for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
             unsigned char *m = big_alloc(sizes[i]);
@@ -68,7 +69,7 @@ static void test_alignment_and_size(void)
 
 static void test_huge_pages_where_offered(void)
 {
-    unsetenv("AGGLO_HUGE_PAGES");
+    setenv("AGGLO_HUGE_PAGES", "1", 1);
     const long before = anon_huge_kb();
     if (!thp_offered() || before < 0) {
         printf("\n    (transparent huge pages off or not reported here: alignment only)\n");
@@ -80,6 +81,7 @@ static void test_huge_pages_where_offered(void)
     memset(m, 1, bytes); /* backed at first touch */
     const long with = anon_huge_kb();
     free(m);
+    unsetenv("AGGLO_HUGE_PAGES");
     /* most of 64 MiB in 2 MiB pages; a fragmented machine may back a few
      * with small ones, none at all means the advice was never given */
     CU_ASSERT(with - before >= 16 * 1024);
@@ -88,7 +90,7 @@ static void test_huge_pages_where_offered(void)
 void big_alloc_register_tests(void)
 {
     CU_pSuite s = CU_add_suite("big_alloc", NULL, NULL);
-    CU_add_test(s, "64-byte aligned, 2 MiB from 8 MiB on, every byte usable, with and without huge pages",
+    CU_add_test(s, "64-byte aligned, 2 MiB from 8 MiB on, every byte usable, with and without AGGLO_HUGE_PAGES=1",
                 test_alignment_and_size);
-    CU_add_test(s, "large arrays on transparent huge pages where the system offers them", test_huge_pages_where_offered);
+    CU_add_test(s, "with AGGLO_HUGE_PAGES=1, large arrays on transparent huge pages where the system offers them", test_huge_pages_where_offered);
 }
