@@ -6,8 +6,8 @@
  * touch 19 arrays, a page each, per cell. Why they are not the default: on
  * this project's VM the first touch of fresh 2 MiB pages was at times far
  * slower than that of recycled 4 KiB ones (perf: clear_page in the huge
- * page fault, 1.2 s of start-up for 262 MB), more than 200 steps of the
- * dual star gained (README "Speed and memory"). The pages are backed at
+ * page fault, 1.2 s of start-up for 262 MB), which cost more than 200 steps
+ * of the dual star gained (README "Speed and memory"). The pages are backed at
  * first touch either way, so the fluid's parallel first touch still puts
  * them near the threads that stream them. */
 #define _DEFAULT_SOURCE /* madvise, MADV_HUGEPAGE */

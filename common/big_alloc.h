@@ -1,6 +1,6 @@
 /* big_alloc.h — memory for arrays far larger than the caches (the fluid's
- * populations, the benchmark's copy arrays), backed by huge pages where the
- * kernel offers them. */
+ * populations, the benchmark's copy arrays), on transparent huge pages on
+ * request (AGGLO_HUGE_PAGES=1). */
 #ifndef COMMON_BIG_ALLOC_H
 #define COMMON_BIG_ALLOC_H
 

@@ -22,7 +22,7 @@
 #include <string.h>
 
 /* One population array of values of esize bytes, 64-byte aligned (on huge
- * pages where it is large: common/big_alloc.h); the cells
+ * pages with AGGLO_HUGE_PAGES=1: common/big_alloc.h); the cells
  * between ncells and the stride of each population are zeroed (they are
  * never read, but a saved state copies them). */
 static void *alloc_populations(const grid_t *g, size_t esize)
