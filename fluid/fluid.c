@@ -177,6 +177,8 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     fl->single = scene->fluid.precision == PRECISION_SINGLE;
     const char *ov = getenv("AGGLO_OVERLAP");
     fl->overlap = !(ov != NULL && strcmp(ov, "0") == 0);
+    const char *sov = getenv("AGGLO_SPHERE_OVERLAP");
+    fl->sov.mode = sov == NULL ? SOV_AUTO : strcmp(sov, "0") == 0 ? SOV_OFF : strcmp(sov, "1") == 0 ? SOV_ON : SOV_AUTO;
     fl->layout = fl->streaming == STREAMING_TWO_ARRAY ? LAYOUT_PULL : LAYOUT_SWAPPED;
     int have = 1;
     for (int k = 0; k < fluid_arrays(fl); k++) {
@@ -242,6 +244,9 @@ void fluid_free(fluid_t *fl)
     }
     walls_free(&fl->walls);
     spheres_free(&fl->spheres);
+    free(fl->sov.plane);
+    free(fl->sov.far);
+    free(fl->sov.near);
     decomp_free(&fl->d);
     free(fl->flags);
     free(fl->f[1]);
@@ -295,7 +300,7 @@ static const double WATCH_SPEED_FLOOR = 1e-3;
 static const double WATCH_DECAY = 0.9;
 static const double WATCH_GROW = 4.0;
 
-static status_t watch_period_two(fluid_t *fl)
+status_t fluid_watch_period_two(fluid_t *fl)
 {
     status_t st = STATUS_OK;
     for (int i = 0; i < fl->spheres.n; i++) {
@@ -379,7 +384,7 @@ static status_t watch_period_two(fluid_t *fl)
  * of each rank sets them from its own copy of the rigid component, and
  * ranks that disagreed in a last bit (another CPU's libm) would disagree on
  * which cells are solid. */
-static void share_kinematics(fluid_t *fl)
+void fluid_share_kinematics(fluid_t *fl)
 {
     if (!decomp_parallel(&fl->d)) {
         return;
@@ -397,135 +402,6 @@ static void share_kinematics(fluid_t *fl)
         memcpy(fl->spheres.s[i].v, buf + 9 * i + 3, 3 * sizeof(double));
         memcpy(fl->spheres.s[i].w, buf + 9 * i + 6, 3 * sizeof(double));
     }
-}
-
-/* The collision and streaming of the cells of box b (NULL: all). */
-static void update(fluid_t *fl, const kernel_box_t *b)
-{
-    if (fl->streaming == STREAMING_TWO_ARRAY) {
-        if (fl->single) {
-            kernel_stream_collide_f32(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
-        } else {
-            kernel_stream_collide(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
-        }
-    } else {
-        const int push = fl->layout == LAYOUT_SWAPPED;
-        if (fl->single) {
-            kernel_in_place_f32(&fl->g, &fl->kp, fl->f[0], push, b);
-        } else {
-            kernel_in_place(&fl->g, &fl->kp, fl->f[0], push, b);
-        }
-    }
-}
-
-/* Slices of the inner cells per exchanged axis, with MPI progress between. */
-enum { OVERLAP_SLICES = 4 };
-
-/* The step on several ranks: the exchange of each axis is in flight while a
- * slice of the inner rows is updated (y and z two or more cells from the
- * block's faces); then the links of the outer rows and their update. The
- * values are those of walls_fill, spheres_fill and one update in sequence,
- * to the bit:
- *  - the inner rows receive nothing that the exchange, a copy or a link
- *    writes after their update: the local periodic copy of x and the links
- *    of the inner rows' cells come first (walls.h), and no other copy,
- *    exchange or link writes what they receive;
- *  - the exchange reads and writes only what the cells of outer rows and the
- *    ghost cells send and receive, which the inner update does not touch;
- *  - every link reads before the inner update (in place, that update
- *    overwrites post-collision values of the cells it pulls from): the wall
- *    links' moments and all sphere links' values are taken first; the
- *    values of outer rows' links are written after the exchange (it writes
- *    the same slots, and the links win, as in sequence);
- *  - every cell is updated once (in place it would take its own output).
- * With x cut between ranks the inner rows would have to stop short of
- * columns 1 and n, and those columns updated apart fetch a cache line per
- * cell and population: measured here, 2 ranks cut along x at 128^3, 37.4
- * against 25.5 ms per step in sequence; so fluid_step does not overlap then
- * (the kernel's boxes allow it: kernel.h). */
-static void step_overlapped(fluid_t *fl, const pops_t *p)
-{
-    const grid_t *g = &fl->g;
-    const int n0 = g->n[0], n1 = g->n[1], n2 = g->n[2];
-    const kernel_box_t in = {{1, 2, 2}, {n0, n1 - 1, n2 - 1}};
-    walls_links_prepare(&fl->walls, p);
-    walls_halo_early(&fl->walls, g, p);
-    walls_links(&fl->walls, p, WALLS_EARLY);
-    if (fl->spheres.n > 0) {
-        spheres_fill(&fl->spheres, p, SPHERES_HOLD_OUTER);
-    }
-    /* the inner rows in slices while the exchanges with other ranks are in
-     * flight (a local periodic copy has nothing in flight) */
-    int axes[3], remote = 0;
-    const int m = walls_halo_axes(&fl->walls, p, axes);
-    for (int k = 0; k < m; k++) {
-        remote += !fl->walls.periodic[axes[k]];
-    }
-    const int nslice = remote * OVERLAP_SLICES, zlen = n2 - 2;
-    for (int k = 0, j = 0; k < m; k++) {
-        walls_halo_begin(&fl->walls, g, p, axes[k], 1);
-        for (int s = 0; s < OVERLAP_SLICES && !fl->walls.periodic[axes[k]]; s++, j++) {
-            kernel_box_t b = in;
-            b.lo[2] = in.lo[2] + zlen * j / nslice;
-            b.hi[2] = in.lo[2] + zlen * (j + 1) / nslice - 1;
-            update(fl, &b);
-            decomp_exchange_progress(&fl->d);
-        }
-        walls_halo_end(&fl->walls, g, p, axes[k]);
-    }
-    walls_links(&fl->walls, p, WALLS_LATE);
-    if (fl->spheres.n > 0) {
-        spheres_write_outer(&fl->spheres, p);
-    }
-    /* the outer rows: two z slabs, two y slabs between them */
-    const kernel_box_t outer[4] = {
-        {{1, 1, 1}, {n0, n1, 1}},
-        {{1, 1, n2}, {n0, n1, n2}},
-        {{1, 1, 2}, {n0, 1, n2 - 1}},
-        {{1, n1, 2}, {n0, n1, n2 - 1}},
-    };
-    for (int i = 0; i < 4; i++) {
-        update(fl, &outer[i]);
-    }
-}
-
-status_t fluid_step(fluid_t *fl)
-{
-    const pops_t p = fluid_pops(fl);
-    if (fl->spheres.n > 0) {
-        share_kinematics(fl);
-        spheres_advance_prescribed(&fl->spheres, fl->step);
-        const status_t st = decomp_agree(&fl->d, spheres_map(&fl->spheres, &fl->g, fl->flags, &p, &fl->log));
-        if (st != STATUS_OK) {
-            return st;
-        }
-    }
-    int exchanged = 0;
-    for (int a = 1; a < 3; a++) {
-        exchanged = exchanged || decomp_exchanged(&fl->d, a, 0) || decomp_exchanged(&fl->d, a, 1);
-    }
-    const int x_cut = decomp_exchanged(&fl->d, 0, 0) || decomp_exchanged(&fl->d, 0, 1);
-    /* blocks of fewer than 3 cells along y or z have no inner rows; a cut
-     * across x costs more than the overlap saves (step_overlapped) */
-    if (exchanged && !x_cut && fl->overlap && fl->g.n[1] >= 3 && fl->g.n[2] >= 3) {
-        step_overlapped(fl, &p);
-    } else {
-        walls_fill(&fl->walls, &fl->g, &p);
-        if (fl->spheres.n > 0) {
-            spheres_fill(&fl->spheres, &p, SPHERES_ALL);
-        }
-        update(fl, NULL);
-    }
-    if (fl->spheres.n > 0) {
-        spheres_loads(&fl->spheres);
-    }
-    if (fl->streaming == STREAMING_TWO_ARRAY) {
-        fl->cur = 1 - fl->cur;
-    } else {
-        fl->layout = fl->layout == LAYOUT_SWAPPED ? LAYOUT_PUSHED : LAYOUT_SWAPPED;
-    }
-    fl->step++;
-    return fl->spheres.n > 0 ? watch_period_two(fl) : STATUS_OK;
 }
 
 long fluid_step_count(const fluid_t *fl) { return fl->step; }

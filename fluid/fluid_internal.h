@@ -20,6 +20,21 @@
 
 enum { CELL_FLUID = 0, CELL_SOLID = 1, CELL_GHOST = 2 };
 
+/* The spheres' stages beside the update (step.c): AGGLO_SPHERE_OVERLAP=0
+ * never, =1 wherever it applies, otherwise (auto) where it is measured to
+ * be faster. */
+enum { SOV_OFF, SOV_ON, SOV_AUTO };
+typedef struct {
+    int mode;
+    uint8_t *plane;           /* per z plane (1..n): within reach of a sphere this step */
+    kernel_box_t *far, *near; /* the far planes in chunks, the near ones in runs */
+    int nfar, nnear;
+    long cycle;               /* auto: timed steps into the cycle of probes and runs (step.c) */
+    double probe[2];          /* auto: time of the probe's steps in sequence, beside (s) */
+    int pick;                 /* auto: 1 when the last probe found beside faster */
+    long steps_beside;        /* steps run with the spheres beside the update */
+} sphere_overlap_t;
+
 struct fluid {
     grid_t g;             /* this rank's block (the whole grid on one rank) */
     decomp_t d;
@@ -35,6 +50,7 @@ struct fluid {
     uint8_t *flags;
     walls_t walls;
     spheres_t spheres;
+    sphere_overlap_t sov;
     long step;
     double t0;
     log_t log;
@@ -76,6 +92,11 @@ static inline __attribute__((always_inline)) void fluid_local_moments(const flui
     "set rigid.coupling: auto (the default) or implicit with fluid.force_averaging: true first: a light body "   \
     "(feedback number h zeta / m large) is coupled explicitly or without force averaging, and a speed that grows " \
     "by itself is that coupling's instability, not the step's"
+
+/* fluid.c, for the step (step.c): rank 0's sphere kinematics to all
+ * ranks; the period-2 watch of the spheres' motion after a step */
+void fluid_share_kinematics(fluid_t *fl);
+status_t fluid_watch_period_two(fluid_t *fl);
 
 static inline int fluid_arrays(const fluid_t *fl) { return fl->streaming == STREAMING_TWO_ARRAY ? 2 : 1; }
 static inline size_t fluid_value_bytes(const fluid_t *fl) { return fl->single ? sizeof(float) : sizeof(double); }
