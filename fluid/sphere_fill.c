@@ -40,6 +40,8 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
     /* the recovery of n^- from the post-collision populations (below) holds
      * away from omega_minus = 1 */
     const int use_decay = fabs(1.0 - sp->omega_minus) >= SPHERES_MR_DECAY_MIN;
+    /* the momentum of x_f serves multireflection's correction only */
+    const int need_j = sp->scheme == BOUNDARY_MULTIREFLECTION;
     for (size_t n = 0; n < list->n; n++) {
         sphere_link_t *l = &list->l[n];
         const int q = l->q, o = lb_opposite(q);
@@ -57,7 +59,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
                 }
             }
             cell = l->xf;
-            rho = pops_moments(f, cell, j);
+            rho = need_j ? pops_moments(f, cell, j) : pops_density(f, cell);
         }
         /* the fill waits on memory (the 19 scattered values of a cell's
          * moments): fetch those of the cell FILL_AHEAD links on in advance */
