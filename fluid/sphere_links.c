@@ -525,14 +525,125 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
     return 1;
 }
 
+/* 1 when a link with this key is in the list (its keys increase). */
+static int list_has_key(const link_list_t *list, uint64_t key)
+{
+    size_t lo = 0, hi = list->n;
+    while (lo < hi) {
+        const size_t mid = lo + (hi - lo) / 2;
+        if (list->l[mid].key < key) {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo < list->n && list->l[lo].key == key;
+}
+
+/* After the rebuilt spheres' lists (dirty) and the others refreshed: 1 when
+ * every link a rebuilt sphere had and no longer has is gone for good (its
+ * fluid cell now solid, or its solid cell fluid) or is now another sphere's
+ * (found in that sphere's list). A link that went to a refreshed sphere
+ * without being found there would be lost (a refresh adds no link), so 0
+ * then: all lists are to be built anew. */
+static int handovers_found(spheres_t *sp, const grid_t *g, const uint8_t *flags, const uint8_t *dirty)
+{
+    for (int m = 0; m < sp->n; m++) {
+        const link_list_t *list = &sp->lists[m];
+        if (!dirty[m]) {
+            continue;
+        }
+        size_t j = 0;
+        for (size_t o = 0; o < list->nold; o++) {
+            const uint64_t key = list->oldkey[o];
+            while (j < list->n && list->l[j].key < key) {
+                j++;
+            }
+            if (j < list->n && list->l[j].key == key) {
+                continue; /* still m's */
+            }
+            int X[3], Y[3], B[3], W[3];
+            key_cell(key, X);
+            const int q = (int)(key & 31);
+            for (int a = 0; a < 3; a++) {
+                B[a] = X[a] + lb_c[q][a];
+            }
+            if (spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y) != 1 ||
+                !spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W)) {
+                return 0;
+            }
+            if ((flags[grid_index(g, Y[0], Y[1], Y[2])] & ~FLAG_FRESH) != 0 ||
+                (flags[grid_index(g, W[0], W[1], W[2])] & FLAG_SOLID) == 0) {
+                continue; /* no link there any more */
+            }
+            int found = 0;
+            for (int k = 0; k < sp->n && !found; k++) {
+                found = k != m && list_has_key(&sp->lists[k], key);
+            }
+            if (!found) {
+                return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+/* Keeps the keys of a list about to be rebuilt (handovers_found). */
+static int keep_old_keys(link_list_t *list)
+{
+    if (!spheres_grow((void **)&list->oldkey, &list->capold, list->n + 1, sizeof *list->oldkey)) {
+        return 0;
+    }
+    for (size_t n = 0; n < list->n; n++) {
+        list->oldkey[n] = list->l[n].key;
+    }
+    list->nold = list->n;
+    return 1;
+}
+
 /* Every sphere's links, in parallel over spheres: each list is its own, so
  * the lists (and the loads summed from them) do not depend on the threads. */
-status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int unchanged, const log_t *log)
+/* Work (changed cells x spheres) beyond which every list is built anew
+ * rather than the spheres near a changed cell sought. */
+#define DIRTY_WORK 4000000.0
+
+/* The spheres whose lists are to be built anew (sp->dirty): a changed cell
+ * within reach of the sphere's links (x_f within r + sqrt 2 of its centre,
+ * x_f + c_q, x_f - c_q and x_f - 2 c_q within r + 3 sqrt 2 = r + 4.25;
+ * r + 4.5 taken), or its box moved. Their count. */
+static int find_dirty(spheres_t *sp)
+{
+    int ndirty = 0;
+    const int all = (double)sp->nchanged * sp->n > DIRTY_WORK;
+    for (int k = 0; k < sp->n; k++) {
+        const sphere_t *p = &sp->s[k];
+        int d = all;
+        for (int a = 0; a < 3 && !d; a++) {
+            d = box_first(p, a) != sp->lists[k].box_lo[a];
+        }
+        const double reach2 = (p->r + 4.5) * (p->r + 4.5);
+        for (size_t j = 0; j < sp->nchanged && !d; j++) {
+            const double x[3] = {sp->changed[j][0], sp->changed[j][1], sp->changed[j][2]};
+            double e[3];
+            spheres_min_image(sp, x, p->c, e);
+            d = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] <= reach2;
+        }
+        sp->dirty[k] = (uint8_t)d;
+        ndirty += d;
+    }
+    return ndirty;
+}
+
+status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int keep, const log_t *log)
 {
     int failed = -1;
-    if (unchanged) {
-        /* no flag changed: each list refreshed in place; one link that changed
-         * hands (any sphere's) and all are rebuilt */
+    const int ndirty = keep ? find_dirty(sp) : sp->n;
+    if (ndirty < sp->n) {
+        const int unchanged = ndirty == 0;
+        const uint8_t *dirty = sp->dirty;
+        /* no flag changed (or only near the dirty spheres): each list refreshed
+         * in place, the dirty ones built anew; one link that changed hands
+         * (any sphere's) and all are built anew */
         int kept = 1;
 #pragma omp parallel
         {
@@ -540,15 +651,37 @@ status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int
             const int have = others_alloc(&o, sp->n);
 #pragma omp for schedule(dynamic, 1) reduction(&& : kept)
             for (int k = 0; k < sp->n; k++) {
-                kept = kept && have && sphere_refresh(sp, flags, k, &o, &sp->lists[k]);
+                if (!have) {
+                    kept = 0;
+                } else if (dirty[k]) {
+                    /* out of memory: the rebuild of all below reports it */
+                    kept = kept && keep_old_keys(&sp->lists[k]) && sphere_links(sp, g, flags, k, &o, &sp->lists[k]);
+                } else {
+                    kept = kept && sphere_refresh(sp, flags, k, &o, &sp->lists[k]);
+                }
             }
             others_free(&o);
         }
+        if (kept && !unchanged) {
+            kept = handovers_found(sp, g, flags, dirty);
+        }
         if (kept) {
-            sp->refreshed++;
+            if (unchanged) {
+                sp->refreshed++;
+            } else {
+                sp->partial++;
+                sp->nlinks = 0;
+                for (int k = 0; k < sp->n; k++) {
+                    sp->nlinks += sp->lists[k].n;
+                }
+            }
             return STATUS_OK;
         }
-        sp->refresh_failed++;
+        if (unchanged) {
+            sp->refresh_failed++;
+        } else {
+            sp->partial_failed++;
+        }
     }
 #pragma omp parallel
     {

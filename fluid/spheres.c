@@ -162,7 +162,8 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     sp->lists = calloc((size_t)sp->n, sizeof *sp->lists);
     sp->accbuf = calloc((size_t)sp->n * 8, sizeof *sp->accbuf);
     sp->kin = calloc((size_t)sp->n * 9, sizeof *sp->kin);
-    if (sp->s == NULL || sp->lists == NULL || sp->accbuf == NULL || sp->kin == NULL) {
+    sp->dirty = calloc((size_t)sp->n + 1, 1);
+    if (sp->s == NULL || sp->lists == NULL || sp->accbuf == NULL || sp->kin == NULL || sp->dirty == NULL) {
         return log_msg(log, STATUS_ERROR, "fluid", "out of memory for %d spheres", sp->n);
     }
     int k = 0;
@@ -222,8 +223,11 @@ void spheres_free(spheres_t *sp)
         free(sp->lists[k].l);
         free(sp->lists[k].carry);
         free(sp->lists[k].inside);
+        free(sp->lists[k].oldkey);
     }
     free(sp->lists);
+    free(sp->dirty);
+    free(sp->changed);
     free(sp->solid);
     free(sp->fresh);
     free(sp->fresh_sphere);
@@ -363,6 +367,20 @@ int spheres_nearest(const spheres_t *sp, const double x[3], double d_out[3])
 }
 
 
+/* Notes a cell (local coordinates X) that this map covers or uncovers, in
+ * global coordinates: 0 when out of memory. */
+static int note_changed(spheres_t *sp, const int X[3])
+{
+    if (!spheres_grow((void **)&sp->changed, &sp->capchanged, sp->nchanged + 1, sizeof *sp->changed)) {
+        return 0;
+    }
+    for (int a = 0; a < 3; a++) {
+        sp->changed[sp->nchanged][a] = X[a] + sp->lo[a];
+    }
+    sp->nchanged++;
+    return 1;
+}
+
 status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_t *f, const log_t *log)
 {
     if (sp->n == 0) {
@@ -410,8 +428,10 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     for (int k = 0; k < sp->n; k++) {
         memcpy(sp->s[k].cmap, sp->s[k].c, sizeof sp->s[k].c);
     }
-    /* links may be refreshed in place if no flag changes (below), on one rank */
-    int unchanged = !sp->first && !sp->stale && !sp->carried && !decomp_parallel(sp->dc);
+    /* the lists may be kept (refreshed, or rebuilt near the cells this map
+     * changes: sp->changed) on one rank */
+    int keep = !sp->first && !sp->stale && !sp->carried && !decomp_parallel(sp->dc);
+    sp->nchanged = 0;
     sp->stale = 0;
     int failed = -1;
 #pragma omp parallel for schedule(dynamic, 1)
@@ -434,7 +454,9 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         }
         int Xu[3];
         cell_coords(g, i, Xu);
-        unchanged = 0;
+        if (keep && !note_changed(sp, Xu)) {
+            keep = 0; /* out of memory for the list: all lists built anew */
+        }
         if (!grid_is_interior(g, Xu[0], Xu[1], Xu[2])) {
             flags[i] = 0; /* a ghost cell of another rank's fluid: its owner refills it */
             continue;
@@ -467,12 +489,14 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
             const int was_solid = flags[i] & FLAG_SOLID;
             flags[i] = FLAG_SOLID;
             sp->solid[sp->nsolid++] = i;
-            unchanged = unchanged && was_solid;
             if (was_solid || sp->first) {
                 continue; /* most cells: solid before (and cell_coords divides) */
             }
             int Xc[3];
             cell_coords(g, i, Xc);
+            if (keep && !note_changed(sp, Xc)) {
+                keep = 0;
+            }
             if (grid_is_interior(g, Xc[0], Xc[1], Xc[2])) {
                 double dp[3] = {0.0, 0.0, 0.0}, rho = 0.0;
                 for (int q = 0; q < LB_Q; q++) {
@@ -522,7 +546,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     sp->first = 0;
     /* the uncovered cells keep FLAG_FRESH through the links (fluid cells for
      * them, marked as fresh on their links: sphere_links) */
-    status_t st = spheres_build_links(sp, g, flags, unchanged, log);
+    status_t st = spheres_build_links(sp, g, flags, keep, log);
     for (size_t j = 0; j < sp->nfresh; j++) {
         flags[sp->fresh[j]] = 0;
     }

@@ -121,6 +121,8 @@ typedef struct {
     spheres_carry_t *carry; /* the pairs of the last links while they are rebuilt, in key order */
     size_t ncarry, capcarry;
     size_t *inside;         /* the cells inside the sphere at the last map (spheres_map) */
+    uint64_t *oldkey;       /* the keys of the links before a rebuild of this list alone (sphere_links.c) */
+    size_t nold, capold;
     size_t ninside, capinside;
     int box_lo[3];          /* the first cell of the box the links were built in (sphere_links.c) */
 } link_list_t;
@@ -138,6 +140,11 @@ typedef struct spheres_s {
     int *fresh_sphere;
     long covered_total, uncovered_total;
     long refreshed, refresh_failed; /* maps whose links were refreshed in place, or tried and rebuilt */
+    long partial, partial_failed;   /* maps that rebuilt the dirty spheres' lists and refreshed the others, or
+                                     * tried and rebuilt all (sphere_links.c) */
+    uint8_t *dirty;                 /* per sphere: a cell within reach of it changed, or its box moved */
+    int (*changed)[3];              /* cells covered or uncovered by this map (global coordinates) */
+    size_t nchanged, capchanged;
     int periodic[3];      /* periodic axes of the domain (period N) */
     int N[3], lo[3], nb[3]; /* the whole grid, this block's first cell and cells */
     grid_t grid;          /* this block's grid */

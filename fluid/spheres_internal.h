@@ -66,9 +66,12 @@ int spheres_nearest(const spheres_t *sp, const double x[3], double d_out[3]);
 size_t spheres_list_pairs(const link_list_t *list, unsigned char *out);
 
 /* Every sphere's links for the current flags (sphere_links.c), in parallel
- * over spheres. unchanged: no flag changed since the lists were built (one
- * rank): each list is first refreshed in place (its links' geometry for the
- * spheres' new places), and rebuilt only if a link changed hands. */
-status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int unchanged, const log_t *log);
+ * over spheres. keep: the lists were built for the flags before this map's
+ * changes, which sp->changed lists (one rank): the lists of the spheres
+ * within reach of a changed cell, or whose box moved, are built anew and
+ * the others refreshed in place (their links' geometry for the spheres' new
+ * places); all are built anew if a link changed hands where that cannot be
+ * followed. */
+status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int keep, const log_t *log);
 
 #endif

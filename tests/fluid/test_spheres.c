@@ -195,11 +195,12 @@ static void test_links_overlapping_and_periodic(void)
     check_links(&s);
 }
 
-/* The links refreshed in place (no flag changed) against the links built
- * anew, field by field: three spheres of three bodies, two of them
- * overlapping (links change hands at their seam), one cut by the periodic
- * faces, moved by random hundredths of a cell; multireflection, filled each
- * step so that the links keep pre-collision pairs. */
+/* The links refreshed in place (no flag changed), or built anew only for
+ * the spheres near a changed cell and refreshed for the others, against the
+ * links all built anew, field by field: three spheres of three bodies, two
+ * of them overlapping (links change hands at their seam), one cut by the
+ * periodic faces, moved by random hundredths of a cell; multireflection,
+ * filled each step so that the links keep pre-collision pairs. */
 static void test_links_refreshed_as_built(void)
 {
     scene_t s = test_box(16, 14, 12, 1.0, COLLISION_TRT);
@@ -227,11 +228,11 @@ static void test_links_refreshed_as_built(void)
             }
             spheres_wrap_centre(sp, sp->s[k].c);
         }
-        const long refreshed = sp->refreshed;
+        const long maps_kept = sp->refreshed + sp->partial;
         pops_t p = fluid_pops(fl);
         CU_ASSERT_EQUAL_FATAL(spheres_map(sp, &fl->g, fl->flags, &p, &fl->log), STATUS_OK);
         spheres_fill(sp, &p, SPHERES_ALL);
-        if (sp->refreshed == refreshed) {
+        if (sp->refreshed + sp->partial == maps_kept) {
             continue;
         }
         /* the refreshed lists, then built anew from the same flags */
@@ -243,7 +244,14 @@ static void test_links_refreshed_as_built(void)
             CU_ASSERT_PTR_NOT_NULL_FATAL(kept[k]);
             memcpy(kept[k], sp->lists[k].l, n[k] * sizeof *kept[k]);
         }
+        /* with the map's flags: its uncovered cells marked fresh, as they were */
+        for (size_t j = 0; j < sp->nfresh; j++) {
+            fl->flags[sp->fresh[j]] = FLAG_FRESH;
+        }
         CU_ASSERT_EQUAL(spheres_build_links(sp, &fl->g, fl->flags, 0, &fl->log), STATUS_OK);
+        for (size_t j = 0; j < sp->nfresh; j++) {
+            fl->flags[sp->fresh[j]] = 0;
+        }
         for (int k = 0; k < sp->n; k++) {
             CU_ASSERT_EQUAL(sp->lists[k].n, n[k]);
             for (size_t j = 0; j < n[k] && j < sp->lists[k].n; j++) {
@@ -260,11 +268,14 @@ static void test_links_refreshed_as_built(void)
             free(kept[k]);
         }
     }
-    printf(" [%ld refreshed maps, %ld tried and rebuilt, %ld links compared]", sp->refreshed, sp->refresh_failed,
-           compared);
+    printf(" [%ld refreshed maps, %ld tried and rebuilt; %ld rebuilt in part, %ld tried and rebuilt; %ld links "
+           "compared]",
+           sp->refreshed, sp->refresh_failed, sp->partial, sp->partial_failed, compared);
     CU_ASSERT_EQUAL(differing, 0);
     CU_ASSERT(sp->refreshed >= 20);     /* the refresh was exercised */
     CU_ASSERT(sp->refresh_failed >= 1); /* and links changed hands without a flag changing */
+    CU_ASSERT(sp->partial >= 10);       /* the rebuild in part too */
+    CU_ASSERT(sp->partial_failed >= 1); /* and its check of links gone to a refreshed sphere */
     fluid_free(fl);
 }
 
