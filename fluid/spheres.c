@@ -273,6 +273,13 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
         hi[a] = (int)floor(p->c[a] + p->r);
     }
     const double r2 = p->r * p->r;
+    /* the box inside the block, away from its faces: a cell's local
+     * coordinates are its global ones less the block's first cell, without
+     * spheres_locate (most spheres, most maps) */
+    int inner = 1;
+    for (int a = 0; a < 3; a++) {
+        inner = inner && lo[a] - sp->lo[a] >= 1 && hi[a] - sp->lo[a] <= sp->nb[a];
+    }
     int X[3], Y[3];
     for (X[2] = lo[2]; X[2] <= hi[2]; X[2]++) {
         for (X[1] = lo[1]; X[1] <= hi[1]; X[1]++) {
@@ -284,19 +291,26 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
             }
             int x0, x1;
             spheres_row_span(p->c[0], sqrt(r2 - e), lo[0], hi[0], &x0, &x1);
+            if (!spheres_grow((void **)&list->inside, &list->capinside, list->ninside + (size_t)(x1 - x0 + 1),
+                              sizeof *list->inside)) {
+                return STATUS_ERROR;
+            }
+            const double dy = X[1] - p->c[1], dz = X[2] - p->c[2];
             for (X[0] = x0; X[0] <= x1; X[0]++) {
-                const double dx = X[0] - p->c[0], dy = X[1] - p->c[1], dz = X[2] - p->c[2];
-                if (dx * dx + dy * dy + dz * dz > r2 ||
-                    !spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y) ||
-                    !(Y[0] >= 0 && Y[0] <= g->n[0] + 1 && Y[1] >= 0 && Y[1] <= g->n[1] + 1 && Y[2] >= 0 &&
-                      Y[2] <= g->n[2] + 1)) {
+                const double dx = X[0] - p->c[0];
+                if (dx * dx + dy * dy + dz * dz > r2) {
+                    continue;
+                }
+                if (inner) {
+                    for (int a = 0; a < 3; a++) {
+                        Y[a] = X[a] - sp->lo[a];
+                    }
+                } else if (!spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y) ||
+                           !(Y[0] >= 0 && Y[0] <= g->n[0] + 1 && Y[1] >= 0 && Y[1] <= g->n[1] + 1 && Y[2] >= 0 &&
+                             Y[2] <= g->n[2] + 1)) {
                     continue; /* beyond a wall, or a halo cell outside the grid's ghost layer */
                 }
                 const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
-                if (!spheres_grow((void **)&list->inside, &list->capinside, list->ninside + 1,
-                                  sizeof *list->inside)) {
-                    return STATUS_ERROR;
-                }
                 list->inside[list->ninside++] = i;
 #pragma omp atomic update
                 flags[i] |= FLAG_MARK;
