@@ -27,6 +27,14 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
 {
     const pops_t fl = pops_fixed(f0, state, single);
     const pops_t *f = &fl;
+    /* where each q's post-collision value of cell 0 is (bytes): a cell's
+     * value of q is then one add away (the cell prefetch and the density) */
+    const size_t esz = single ? sizeof(float) : sizeof(double);
+    const char *base = single ? (const char *)f->h : (const char *)f->f;
+    const char *pb[LB_Q];
+    for (int q = 0; q < LB_Q; q++) {
+        pb[q] = base + esz * pops_post_slot(f, q, 0);
+    }
     size_t cell = (size_t)-1;
     double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
     /* the load of a cell's links, summed in q order, then added exactly to
@@ -59,14 +67,25 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
                 }
             }
             cell = l->xf;
-            rho = need_j ? pops_moments(f, cell, j) : pops_density(f, cell);
+            if (need_j) {
+                rho = pops_moments(f, cell, j);
+            } else {
+                /* pops_density's sum, in its order */
+                rho = 0.0;
+                const size_t cb0 = cell * esz;
+#pragma GCC unroll 19
+                for (int q = 0; q < LB_Q; q++) {
+                    rho += single ? (double)*(const float *)(pb[q] + cb0) + lb_w[q] : *(const double *)(pb[q] + cb0);
+                }
+            }
         }
         /* the fill waits on memory (the 19 scattered values of a cell's
          * moments): fetch those of the cell FILL_AHEAD links on in advance */
         if (n + FILL_AHEAD < list->n && list->l[n + FILL_AHEAD].xf != list->l[n + FILL_AHEAD - 1].xf) {
-            const size_t ahead = list->l[n + FILL_AHEAD].xf;
+            const size_t ahead = list->l[n + FILL_AHEAD].xf * esz;
+#pragma GCC unroll 19
             for (int qq = 0; qq < LB_Q; qq++) {
-                pops_prefetch(f, pops_post_slot(f, qq, ahead), 0);
+                __builtin_prefetch(pb[qq] + ahead, 0);
             }
         }
         /* the records stream in at 168 bytes a link, and the look-ahead below
