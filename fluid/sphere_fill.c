@@ -12,6 +12,9 @@
 #include <math.h>
 #include <string.h>
 
+/* |c_q|^2: the sum cq . cq of the fill, exact in any order */
+static const double lb_cc[LB_Q] = {0, 1, 1, 1, 2, 2, 2, 2, 2, 2, 1, 1, 1, 2, 2, 2, 2, 2, 2};
+
 /* links ahead at which spheres_fill prefetches a cell's populations */
 #define FILL_AHEAD 12
 /* links ahead at which it prefetches a link's own scattered values */
@@ -120,7 +123,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         for (int a = 0; a < 3; a++) {
             uw[a] = p->v[a] + wr[a];
         }
-        const double cu = lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2];
+        const double cu = lb_cd[q][0] * uw[0] + lb_cd[q][1] * uw[1] + lb_cd[q][2] * uw[2];
         const double A = l->co.a[0] + l->co.a[1] + l->co.a[2];
         const double f_old = pops_post(f, q, l->xf);
         double f_new = l->co.a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
@@ -148,11 +151,11 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
                 /* the pair the last fill kept */
                 double cu0 = 0.0;
                 for (int a = 0; a < 3; a++) {
-                    cu0 += lb_c[q][a] * (j[a] - sp->body_force[a]);
+                    cu0 += lb_cd[q][a] * (j[a] - sp->body_force[a]);
                 }
                 nm = 0.5 * (l->pre[0] - l->pre[1]) - 3.0 * lb_w[q] * cu0;
             } else {
-                const double cj = lb_c[q][0] * j[0] + lb_c[q][1] * j[1] + lb_c[q][2] * j[2];
+                const double cj = lb_cd[q][0] * j[0] + lb_cd[q][1] * j[1] + lb_cd[q][2] * j[2];
                 nm = (0.5 * (f_old - pops_post(f, o, l->xf)) - 3.0 * lb_w[q] * cj) * inv_decay;
             }
             f_new += l->co.corr * nm;
@@ -175,7 +178,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         const double mem = f_old + f_new - 2.0 * lb_w[q];
         double df[3];
         for (int a = 0; a < 3; a++) {
-            df[a] = lb_c[q][a] * mem - (galilean ? (f_old - f_new) * uw[a] : 0.0);
+            df[a] = lb_cd[q][a] * mem - (galilean ? (f_old - f_new) * uw[a] : 0.0);
         }
         if (l->film != -1) {
             /* in the film zone: the normal part is the film's (sphere_links.c film_partner) */
@@ -203,11 +206,11 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
         /* the moving-wall term makes df react at once to the wall velocity:
          * d(df)/d(u_w) = -A 6 w rho c c^T; its isotropic parts for v and for
          * w (u_w = v + w x r_w, so c . u_w = c . v + w . (r_w x c)) */
-        const double cq[3] = {lb_c[q][0], lb_c[q][1], lb_c[q][2]};
+        const double cq[3] = {lb_cd[q][0], lb_cd[q][1], lb_cd[q][2]};
         double rc[3];
         spheres_cross(l->rw, cq, rc);
         const double k = A * 6.0 * lb_w[q] * rho / 3.0;
-        cl[6] += k * (cq[0] * cq[0] + cq[1] * cq[1] + cq[2] * cq[2]);
+        cl[6] += k * lb_cc[q];
         cl[7] += k * (rc[0] * rc[0] + rc[1] * rc[1] + rc[2] * rc[2]);
     }
     if (p != NULL) {
