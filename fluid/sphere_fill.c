@@ -53,6 +53,8 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
     const int use_decay = fabs(1.0 - sp->omega_minus) >= SPHERES_MR_DECAY_MIN;
     /* the momentum of x_f serves multireflection's correction only */
     const int need_j = sp->scheme == BOUNDARY_MULTIREFLECTION;
+    /* the schemes that may read x_f - 2 c_q */
+    const int wide = sp->scheme == BOUNDARY_MULTIREFLECTION || sp->scheme == BOUNDARY_QUADRATIC;
     for (size_t n = 0; n < list->n; n++) {
         sphere_link_t *l = &list->l[n];
         const int q = l->q, o = lb_opposite(q);
@@ -91,15 +93,16 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
                 __builtin_prefetch(pb[qq] + ahead, 0);
             }
         }
-        /* the records stream in at 168 bytes a link, and the look-ahead below
-         * reads record n + LINK_AHEAD: with its lines asked for before, the
-         * fill took 0.43-0.48 s where it took 0.50-0.59 s (dual star, 200
-         * steps; README "Speed and memory") */
+        /* the records stream in (104 bytes a link, two or three cache
+         * lines), and the look-ahead below reads record n + LINK_AHEAD: with
+         * its lines asked for before, the fill took 0.43-0.48 s where it took
+         * 0.50-0.59 s (dual star, 200 steps, 168-byte records then; README
+         * "Speed and memory") */
         if (n + RECORD_AHEAD < list->n) {
             const char *r = (const char *)&list->l[n + RECORD_AHEAD];
             __builtin_prefetch(r, 1);
             __builtin_prefetch(r + 64, 1);
-            __builtin_prefetch(r + 128, 1);
+            __builtin_prefetch(r + sizeof(sphere_link_t) - 1, 1);
         }
         /* and the link's own scattered values (x_f - c_q, x_f - 2 c_q and the
          * slot it writes) LINK_AHEAD links on: the fill is bound by their
@@ -108,13 +111,16 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
             const sphere_link_t *m = &list->l[n + LINK_AHEAD];
             const int mo = lb_opposite(m->q);
             pops_prefetch(f, pops_in_slot(f, mo, m->xf), 1);
+            /* (a hint: where the coefficients may read x_f - 2 c_q, and
+             * f~_qbar(x_f - c_q) with it, as boundary_coefficients gives them) */
+            const int far = (m->have & 2) && wide;
             if (m->xff != m->xf && m->xff < SPHERE_EXT) {
                 pops_prefetch(f, pops_post_slot(f, m->q, m->xff), 0);
-                if (m->co.b[1] != 0.0) {
+                if (far) {
                     pops_prefetch(f, pops_post_slot(f, mo, m->xff), 0);
                 }
             }
-            if (m->co.a[2] != 0.0 && m->xfff < SPHERE_EXT) {
+            if (far && m->xfff < SPHERE_EXT) {
                 pops_prefetch(f, pops_post_slot(f, m->q, m->xfff), 0);
             }
         }
@@ -124,21 +130,23 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
             uw[a] = p->v[a] + wr[a];
         }
         const double cu = lb_cd[q][0] * uw[0] + lb_cd[q][1] * uw[1] + lb_cd[q][2] * uw[2];
-        const double A = l->co.a[0] + l->co.a[1] + l->co.a[2];
+        boundary_coef_t co;
+        boundary_coefficients(sp->scheme, l->delta, l->have & 1, l->have >> 1 & 1, sp->omega_minus, &co);
+        const double A = co.a[0] + co.a[1] + co.a[2];
         const double f_old = pops_post(f, q, l->xf);
-        double f_new = l->co.a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
-        const int linear = l->co.a[1] != 0.0 || l->co.b[0] != 0.0 || l->co.b[1] != 0.0;
-        const double f_ff = (linear || l->co.corr != 0.0) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
+        double f_new = co.a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
+        const int linear = co.a[1] != 0.0 || co.b[0] != 0.0 || co.b[1] != 0.0;
+        const double f_ff = (linear || co.corr != 0.0) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
         if (linear) {
-            f_new += l->co.a[1] * f_ff + l->co.b[0] * pops_post(f, o, l->xf);
+            f_new += co.a[1] * f_ff + co.b[0] * pops_post(f, o, l->xf);
         }
-        if (l->co.a[2] != 0.0) {
-            f_new += l->co.a[2] * spheres_post(sp, f, q, l->xfff);
+        if (co.a[2] != 0.0) {
+            f_new += co.a[2] * spheres_post(sp, f, q, l->xfff);
         }
-        if (l->co.b[1] != 0.0) {
-            f_new += l->co.b[1] * spheres_post(sp, f, o, l->xff);
+        if (co.b[1] != 0.0) {
+            f_new += co.b[1] * spheres_post(sp, f, o, l->xff);
         }
-        if (l->co.corr != 0.0 && !l->fresh && (l->has_pre || use_decay)) {
+        if (co.corr != 0.0 && !l->fresh && (l->has_pre || use_decay)) {
             /* antisymmetric non-equilibrium of the pre-collision populations at x_f:
              * f_q came from x_f - c_q, f_qbar from the solid side, the very slot of this link.
              * It is taken against the pre-collision momentum j - F (Guo's collision adds
@@ -158,9 +166,9 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
                 const double cj = lb_cd[q][0] * j[0] + lb_cd[q][1] * j[1] + lb_cd[q][2] * j[2];
                 nm = (0.5 * (f_old - pops_post(f, o, l->xf)) - 3.0 * lb_w[q] * cj) * inv_decay;
             }
-            f_new += l->co.corr * nm;
+            f_new += co.corr * nm;
         }
-        if (l->co.corr != 0.0) {
+        if (co.corr != 0.0) {
             /* the pre-collision pair of x_f at the next fill: f~_q(x_f - c_q)
              * streams to x_f, f_new is what x_f receives from the wall */
             l->pre[0] = f_ff;

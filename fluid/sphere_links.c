@@ -249,13 +249,12 @@ static void others_free(others_t *o)
     free(o->dnear);
 }
 
-/* What a link's geometry gives it: delta, the scheme's coefficients, the
- * wall point, the film partner (dk: x_f - c_k). */
+/* What a link's geometry gives it: delta (and so the scheme's
+ * coefficients), the wall point, the film partner (dk: x_f - c_k). */
 static inline void link_geometry(const spheres_t *sp, int k, sphere_link_t *l, const double dk[3], double delta,
                                  const others_t *o)
 {
     l->delta = delta;
-    boundary_coefficients(sp->scheme, delta, l->have & 1, l->have >> 1 & 1, sp->omega_minus, &l->co);
     for (int a = 0; a < 3; a++) {
         l->rw[a] = dk[a] + delta * lb_c[l->q][a];
     }
@@ -500,7 +499,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     sphere_link_t *l = &links[nl++];
                     l->key = link_key(X, q);
                     l->has_pre = 0;
-                    l->q = q;
+                    l->q = (uint8_t)q;
                     l->sphere = k;
                     l->xf = l->xff = l->xfff = i; /* xff, xfff: replaced where they exist */
                     /* uncovered this step: refill.c replaced its populations, it has no
@@ -512,7 +511,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
                     const int have_ff = fluid_at(sp, g, flags, Y, deep, i, off[q], q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, deep, i, off[q], q, 2, &l->xfff);
-                    l->have = have_ff | have_fff << 1;
+                    l->have = (uint8_t)(have_ff | have_fff << 1);
                     link_geometry(sp, k, l, dk, delta, o);
                 }
             }

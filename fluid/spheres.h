@@ -78,28 +78,32 @@ typedef struct {
 } sphere_halo_t;
 
 /* Link from fluid cell x_f along c_q into a solid cell: it writes
- * in_slot(qbar, x_f) (layout.h), the population x_f receives from the solid. */
+ * in_slot(qbar, x_f) (layout.h), the population x_f receives from the solid.
+ * 104 bytes (168 with the scheme's coefficients kept in it: the refresh
+ * wrote and the fill read them every step, for a moving sphere, where the
+ * fill now derives them from delta and have). */
 typedef struct {
     size_t xf, xff, xfff; /* interior cells along -c_q (periodic wrap applied) */
-    boundary_coef_t co;   /* f_new = sum a_k f~_q(x_f - k c_q) + sum b_k f~_qbar(x_f - k c_q) + moving term
-                           * + corr n_q^-(x_f), pre-collision (boundary.h) */
     double rw[3];         /* wall point minus sphere centre */
-    int q, sphere;
-    int fresh;            /* x_f was uncovered this step: no multireflection correction */
-    int film;             /* the film partner whose surface lies within the lubrication cut-off of the
-                           * wall point: a sphere m >= 0, a domain face -2 - face; -1 none (spheres_fill) */
-    int outer;            /* x_f lies in an outer row of the block: y or z at its faces (spheres_fill) */
-    int have;             /* x_f - c_q fluid: bit 0; x_f - 2 c_q too: bit 1 (boundary_coefficients) */
+    double delta;         /* Eq. 5; with have, the scheme's coefficients (boundary_coefficients):
+                           * f_new = sum a_k f~_q(x_f - k c_q) + sum b_k f~_qbar(x_f - k c_q) + moving term
+                           * + corr n_q^-(x_f), pre-collision (boundary.h) */
     double fnew;          /* outer: the value to write, held back (SPHERES_HOLD_OUTER) */
-    double delta;
     /* multireflection: the pre-collision pair (f_q, f_qbar) of x_f for the
      * next fill, which the fill keeps as it goes: f_q is the post-collision
      * f~_q(x_f - c_q) it reads (it streams to x_f), f_qbar the value it
      * writes. In place the collision may have forgotten them (omega_minus
      * near 1). Carried over a rebuild of the links by key (spheres_carry_t). */
     double pre[2];
-    int has_pre;
     uint64_t key;         /* (unwrapped cell, q), increasing along a sphere's list (sphere_links.c) */
+    int sphere;
+    int film;             /* the film partner whose surface lies within the lubrication cut-off of the
+                           * wall point: a sphere m >= 0, a domain face -2 - face; -1 none (spheres_fill) */
+    uint8_t q;
+    uint8_t fresh;        /* x_f was uncovered this step: no multireflection correction */
+    uint8_t outer;        /* x_f lies in an outer row of the block: y or z at its faces (spheres_fill) */
+    uint8_t have;         /* x_f - c_q fluid: bit 0; x_f - 2 c_q too: bit 1 (boundary_coefficients) */
+    uint8_t has_pre;
 } sphere_link_t;
 
 /* A link's pre-collision pair while the links are rebuilt, or saved in a
