@@ -118,9 +118,10 @@ static void step_overlapped(fluid_t *fl, const pops_t *p)
  * a slot of a cell kept at its neighbour (in place, layout.h), and the
  * neighbours an update of a far cell touches: 2 + 1 + 1 = 4, and two more
  * to spare. SOV_FACE: cells from a face within which walls_fill reads or
- * writes (ghost layers, wall links, the slip correction); a sphere's reach
- * within it and the schedule is not used, because the map (refill) and the
- * walls' fill would then have to keep their order. */
+ * writes (ghost layers, wall links, the slip correction); with a sphere's
+ * reach within it the map (its refill) and the walls' fill must keep their
+ * order, so the map runs first, on all threads, and only the fill beside
+ * the update (SOV_FILL). */
 enum { SOV_REACH = 6, SOV_FACE = 3, SOV_CHUNK_CELLS = 16384 };
 /* auto: SOV_PROBE steps of each schedule alternately (so that both meet
  * the same machine and the same mix of steps: a map that rebuilds the
@@ -128,8 +129,13 @@ enum { SOV_REACH = 6, SOV_FACE = 3, SOV_CHUNK_CELLS = 16384 };
  * SOV_RUN steps, and again (the spheres move, the machine's load changes) */
 enum { SOV_PROBE = 8, SOV_RUN = 200 };
 
-/* The planes near and far from every sphere for this step: 0 when the
- * schedule does not apply (a sphere's reach near a face, or no far plane). */
+/* What runs beside the update of the far planes: the map and the fill, or
+ * the fill alone. */
+enum { SOV_NONE, SOV_MAP_FILL, SOV_FILL };
+
+/* The planes near and far from every sphere for this step, and what runs
+ * beside: SOV_NONE when nothing does (no far plane, a sphere's reach across
+ * a periodic z face, or a centre not finite: the sequence reports it). */
 static int sov_plan(fluid_t *fl)
 {
     sphere_overlap_t *ov = &fl->sov;
@@ -144,18 +150,27 @@ static int sov_plan(fluid_t *fl)
         }
     }
     memset(ov->plane, 0, (size_t)nz + 2);
+    int inside = 1;
     for (int k = 0; k < fl->spheres.n; k++) {
         const sphere_t *s = &fl->spheres.s[k];
         int lo[3], hi[3];
         for (int a = 0; a < 3; a++) {
+            if (!(fabs(s->c[a]) < 1e9 && fabs(s->cmap[a]) < 1e9 && s->r < 1e9)) {
+                return SOV_NONE;
+            }
             /* this map's place and the last one's (its uncovered cells) */
             lo[a] = (int)floor(fmin(s->c[a], s->cmap[a]) - s->r) - 1 - SOV_REACH;
             hi[a] = (int)ceil(fmax(s->c[a], s->cmap[a]) + s->r) + 1 + SOV_REACH;
-            if (!(lo[a] >= 1 + SOV_FACE && hi[a] <= g->n[a] - SOV_FACE)) {
-                return 0; /* also a NaN centre: the sequence reports it */
-            }
+            inside = inside && lo[a] >= 1 + SOV_FACE && hi[a] <= g->n[a] - SOV_FACE;
         }
-        memset(ov->plane + lo[2], 1, (size_t)(hi[2] - lo[2] + 1));
+        if (fl->spheres.periodic[2] && (lo[2] < 1 || hi[2] > nz)) {
+            return SOV_NONE; /* its reach wraps to the other end's planes */
+        }
+        lo[2] = lo[2] < 1 ? 1 : lo[2];
+        hi[2] = hi[2] > nz ? nz : hi[2];
+        if (lo[2] <= hi[2]) {
+            memset(ov->plane + lo[2], 1, (size_t)(hi[2] - lo[2] + 1));
+        }
     }
     const int chunk = (int)fmax(1.0, (double)SOV_CHUNK_CELLS / ((double)g->n[0] * g->n[1]));
     ov->nfar = ov->nnear = 0;
@@ -174,7 +189,7 @@ static int sov_plan(fluid_t *fl)
         }
         z = e + 1;
     }
-    return ov->nfar > 0;
+    return ov->nfar == 0 ? SOV_NONE : inside ? SOV_MAP_FILL : SOV_FILL;
 }
 
 /* 1: spheres beside the update this step. first: the step builds the
@@ -202,27 +217,38 @@ static void sov_record(fluid_t *fl, int s, double seconds)
     ov->cycle = (ov->cycle + 1) % (2 * SOV_PROBE + SOV_RUN);
 }
 
-/* One thread maps and fills the spheres while the others update the far
- * planes (each taking the next chunk as it is done, and the sphere thread
- * too once it is), then all update the near planes. The same values as the
- * sequence to the bit: the sphere stages read and write only cells within
- * SOV_REACH of a sphere's box, and the update of a far cell only that cell
- * and its neighbours' slots, so neither sees the other's writes; each cell
- * is updated once, from the same inputs; walls_fill comes first, which no
- * sphere stage depends on (SOV_FACE). The sphere stages' own parallel loops
- * run on their one thread (a nested region has one thread unless nesting is
- * on); so does the update of each far chunk. A failed map returns at once
- * after the far planes: the step is then lost, as in sequence. */
-static status_t step_spheres_beside(fluid_t *fl, const pops_t *p)
+/* One thread maps and fills the spheres (plan SOV_MAP_FILL; SOV_FILL: the
+ * map first, on all threads, then the walls' fill, in the sequence's order,
+ * and the fill alone beside) while the others update the far planes (each
+ * taking the next chunk as it is done, and the sphere thread too once it
+ * is), then all update the near planes. The same values as the sequence to
+ * the bit: the sphere stages read and write only cells within SOV_REACH of
+ * a sphere's box (across a periodic x or y face too: those are all in near
+ * planes), and the update of a far cell only that cell and its neighbours'
+ * slots, so neither sees the other's writes; each cell is updated once,
+ * from the same inputs; with SOV_MAP_FILL walls_fill comes first, which no
+ * sphere stage then depends on (SOV_FACE). The sphere stages' own parallel
+ * loops run on their one thread (a nested region has one thread unless
+ * nesting is on); so does the update of each far chunk. A failed map
+ * returns after the far planes: the step is then lost, as in sequence. */
+static status_t step_spheres_beside(fluid_t *fl, const pops_t *p, int plan)
 {
     sphere_overlap_t *ov = &fl->sov;
-    walls_fill(&fl->walls, &fl->g, p);
     status_t st = STATUS_OK;
+    if (plan == SOV_FILL) {
+        st = spheres_map(&fl->spheres, &fl->g, fl->flags, p, &fl->log);
+        if (st != STATUS_OK) {
+            return st;
+        }
+    }
+    walls_fill(&fl->walls, &fl->g, p);
 #pragma omp parallel
     {
 #pragma omp single nowait
         {
-            st = spheres_map(&fl->spheres, &fl->g, fl->flags, p, &fl->log);
+            if (plan == SOV_MAP_FILL) {
+                st = spheres_map(&fl->spheres, &fl->g, fl->flags, p, &fl->log);
+            }
             if (st == STATUS_OK) {
                 spheres_fill(&fl->spheres, p, SPHERES_ALL);
             }
@@ -251,10 +277,11 @@ status_t fluid_step(fluid_t *fl)
         fluid_share_kinematics(fl);
         spheres_advance_prescribed(&fl->spheres, fl->step);
     }
-    const int planned = spheres && fl->sov.mode != SOV_OFF && !decomp_parallel(&fl->d) && sov_plan(fl);
+    const int plan = spheres && fl->sov.mode != SOV_OFF && !decomp_parallel(&fl->d) ? sov_plan(fl) : SOV_NONE;
+    const int planned = plan != SOV_NONE;
     const int beside = planned && sov_choose(fl, first);
     if (beside) {
-        const status_t st = step_spheres_beside(fl, &p);
+        const status_t st = step_spheres_beside(fl, &p, plan);
         if (st != STATUS_OK) {
             return st;
         }

@@ -1,8 +1,10 @@
 /* test_schedules.c — the step's schedules (fluid/step.c) give the same
  * values to the bit: the spheres' stages beside the update of the far planes
  * against the stages in sequence, in both layouts and precisions and with
- * the boundary scheme that keeps pairs on its links; a sphere within reach
- * of a face keeps the sequence; auto times both and keeps to its cycle. */
+ * the boundary scheme that keeps pairs on its links; the fill alone beside
+ * where a sphere's reach comes near a face (a wall, a periodic face); the
+ * sequence where it wraps across a periodic z face; auto times both and
+ * keeps to its cycle. */
 #include "fluid_tests.h"
 #include "test_util.h"
 
@@ -18,9 +20,11 @@ enum { NX = 32, NY = 30, NZ = 44, NCELLS = NX * NY * NZ, STEPS = 25 };
 
 /* Periodic x, free-slip y, a no-slip and a moving wall in z (walls_fill has
  * work on every axis); a prescribed dimer along z that moves and turns,
- * crossing cells, centred at height zc; at zc = 22 its reach (box, SOV_REACH
- * and the faces' margin) leaves 8 planes below it and 9 above. */
-static scene_t dimer_scene(double zc, streaming_t streaming, precision_t precision, boundary_scheme_t scheme)
+ * crossing cells, centred at (xc, 15.x, zc); at xc = 16, zc = 22 its reach
+ * (box, SOV_REACH and the faces' margin) leaves 8 planes below it and 9
+ * above, and keeps off every face. */
+static scene_t dimer_scene(double xc, double zc, streaming_t streaming, precision_t precision,
+                           boundary_scheme_t scheme)
 {
     static scene_sphere_t sph[2];
     static scene_body_t body;
@@ -32,7 +36,7 @@ static scene_t dimer_scene(double zc, streaming_t streaming, precision_t precisi
     f[5].velocity[0] = 0.02;
     memset(sph, 0, sizeof sph);
     memset(&body, 0, sizeof body);
-    const double c[2][3] = {{16.0, 15.0, zc - 3.1}, {16.4, 15.5, zc + 3.1}};
+    const double c[2][3] = {{xc, 15.0, zc - 3.1}, {xc + 0.4, 15.5, zc + 3.1}};
     for (int k = 0; k < 2; k++) {
         sph[k].radius = 2.6;
         memcpy(sph[k].center, c[k], sizeof c[k]);
@@ -94,7 +98,7 @@ static void test_beside_equals_sequence(void)
     outcome_t *o = malloc(2 * sizeof *o);
     CU_ASSERT_FATAL(o != NULL);
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        const scene_t s = dimer_scene(22.0, cases[c].streaming, cases[c].precision, cases[c].scheme);
+        const scene_t s = dimer_scene(16.0, 22.0, cases[c].streaming, cases[c].precision, cases[c].scheme);
         run(&s, SOV_OFF, STEPS, &o[0]);
         run(&s, SOV_ON, STEPS, &o[1]);
         CU_ASSERT(o[0].beside == 0);
@@ -109,13 +113,29 @@ static void test_beside_equals_sequence(void)
     free(o);
 }
 
-/* Centred 6 cells from the no-slip face: within reach (box, reach and the
- * face's margin), so the step keeps its sequence even when asked. */
-static void test_near_face_in_sequence(void)
+/* Near a face the map keeps its order with the walls' fill and only the
+ * fill runs beside: 4 cells from the no-slip face, and across the periodic
+ * x face (centred at x = 1.5: its links reach the other end through the
+ * ghost layer the fill writes). Across a periodic z face the reach would
+ * wrap to far planes at the other end: the sequence then, even when asked. */
+static void test_near_faces(void)
 {
     outcome_t *o = malloc(2 * sizeof *o);
     CU_ASSERT_FATAL(o != NULL);
-    const scene_t s = dimer_scene(6.5, STREAMING_IN_PLACE, PRECISION_DOUBLE, BOUNDARY_CLI);
+    static const double at[2][2] = {{16.0, 7.5}, {1.5, 22.0}};
+    for (int c = 0; c < 2; c++) {
+        const scene_t s = dimer_scene(at[c][0], at[c][1], STREAMING_IN_PLACE, PRECISION_DOUBLE, BOUNDARY_MULTIREFLECTION);
+        run(&s, SOV_OFF, 15, &o[0]);
+        run(&s, SOV_ON, 15, &o[1]);
+        CU_ASSERT(o[1].beside == 15);
+        CU_ASSERT(o[0].covered > 0);
+        CU_ASSERT(same(&o[0], &o[1]));
+        if (!same(&o[0], &o[1])) {
+            printf("\n    near a face, case %d: the schedules differ", c);
+        }
+    }
+    scene_t s = dimer_scene(16.0, 4.0, STREAMING_IN_PLACE, PRECISION_DOUBLE, BOUNDARY_CLI);
+    s.domain.faces[4].type = s.domain.faces[5].type = FACE_PERIODIC;
     run(&s, SOV_OFF, 9, &o[0]);
     run(&s, SOV_ON, 9, &o[1]);
     CU_ASSERT(o[1].beside == 0);
@@ -123,15 +143,16 @@ static void test_near_face_in_sequence(void)
     free(o);
 }
 
-/* auto: the first step (the lists built anew) in sequence, then 8 steps of
- * each alternately, then the faster of the two for the rest: beside in 8 or
- * in 8 + the rest of the steps, and the same values as the sequence. */
+/* auto: 8 steps of each alternately (the lists were built when the fluid
+ * was created, so every step is timed), then the faster of the two for the
+ * rest: beside in 8 or in 8 + the rest of the steps, and the same values as
+ * the sequence. */
 static void test_auto_probes_both(void)
 {
     outcome_t *o = malloc(2 * sizeof *o);
     CU_ASSERT_FATAL(o != NULL);
-    const long steps = 31, rest = steps - 1 - 16;
-    const scene_t s = dimer_scene(22.0, STREAMING_IN_PLACE, PRECISION_DOUBLE, BOUNDARY_CLI);
+    const long steps = 31, rest = steps - 16;
+    const scene_t s = dimer_scene(16.0, 22.0, STREAMING_IN_PLACE, PRECISION_DOUBLE, BOUNDARY_CLI);
     run(&s, SOV_OFF, steps, &o[0]);
     run(&s, SOV_AUTO, steps, &o[1]);
     CU_ASSERT(o[1].beside == 8 || o[1].beside == 8 + rest);
@@ -146,6 +167,8 @@ void schedules_register_tests(void)
     CU_add_test(s, "spheres beside the far planes' update: the sequence's values to the bit (layouts, precisions, "
                    "schemes)",
                 test_beside_equals_sequence);
-    CU_add_test(s, "a sphere within reach of a face: the sequence", test_near_face_in_sequence);
+    CU_add_test(s, "near a wall or across a periodic x face: the fill beside, the same bits; across periodic z: "
+                   "the sequence",
+                test_near_faces);
     CU_add_test(s, "auto: both schedules timed alternately, then the faster", test_auto_probes_both);
 }
