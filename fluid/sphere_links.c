@@ -600,8 +600,6 @@ static int keep_old_keys(link_list_t *list)
     return 1;
 }
 
-/* Every sphere's links, in parallel over spheres: each list is its own, so
- * the lists (and the loads summed from them) do not depend on the threads. */
 /* Work (changed cells x spheres) beyond which every list is built anew
  * rather than the spheres near a changed cell sought. */
 #define DIRTY_WORK 4000000.0
@@ -633,6 +631,8 @@ static int find_dirty(spheres_t *sp)
     return ndirty;
 }
 
+/* Every sphere's links, in parallel over spheres: each list is its own, so
+ * the lists (and the loads summed from them) do not depend on the threads. */
 status_t spheres_build_links(spheres_t *sp, const grid_t *g, uint8_t *flags, int keep, const log_t *log)
 {
     int failed = -1;

@@ -291,8 +291,8 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
             }
             int x0, x1;
             spheres_row_span(p->c[0], sqrt(r2 - e), lo[0], hi[0], &x0, &x1);
-            if (!spheres_grow((void **)&list->inside, &list->capinside, list->ninside + (size_t)(x1 - x0 + 1),
-                              sizeof *list->inside)) {
+            const size_t row = x1 >= x0 ? (size_t)(x1 - x0 + 1) : 0;
+            if (!spheres_grow((void **)&list->inside, &list->capinside, list->ninside + row, sizeof *list->inside)) {
                 return STATUS_ERROR;
             }
             const double dy = X[1] - p->c[1], dz = X[2] - p->c[2];

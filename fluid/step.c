@@ -4,12 +4,13 @@
  *  - in sequence: map, walls, fill, then the update of all cells, each
  *    stage parallel over its own items;
  *  - spheres beside the update (one rank; step_spheres_beside): one thread
- *    runs the sphere stages while the others update the z planes far from
- *    every sphere, then all update the planes near them. The update is
- *    bound by memory bandwidth, which one thread of two nearly fills (the
- *    in-place kernel ran at 0.65 of its two-thread rate on one thread
- *    here), and the sphere stages by their own instructions: side by side
- *    they share the step better than one after the other;
+ *    runs the sphere stages (near a face: the fill alone, the map first)
+ *    while the others update the z planes far from every sphere, then all
+ *    update the planes near them. The update is bound by memory bandwidth,
+ *    which one thread of two nearly fills (the in-place kernel ran at 0.65
+ *    of its two-thread rate on one thread here), and the sphere stages by
+ *    their own instructions and misses: side by side they share the step
+ *    better than one after the other;
  *  - the exchange in flight (several ranks; step_overlapped).
  * Which of the first two runs is measured as the run goes (sov_choose):
  * what pays depends on the machine, the threads and the scene. */
@@ -42,8 +43,8 @@ static void update(fluid_t *fl, const kernel_box_t *b)
 /* Slices of the inner cells per exchanged axis, with MPI progress between. */
 enum { OVERLAP_SLICES = 4 };
 
-/* The step on several ranks (the exchange in flight): the exchange of each axis is in flight while a
- * slice of the inner rows is updated (y and z two or more cells from the
+/* The step on several ranks: the exchange of each axis is in flight while
+ * a slice of the inner rows is updated (y and z two or more cells from the
  * block's faces); then the links of the outer rows and their update. The
  * values are those of walls_fill, spheres_fill and one update in sequence,
  * to the bit:
