@@ -142,12 +142,12 @@ static int sov_plan(fluid_t *fl)
     sphere_overlap_t *ov = &fl->sov;
     const grid_t *g = &fl->g;
     const int nz = g->n[2];
-    if (ov->plane == NULL) {
-        ov->plane = malloc((size_t)nz + 2);
-        ov->far = malloc((size_t)nz * sizeof *ov->far);
-        ov->near = malloc((size_t)nz * sizeof *ov->near);
+    if (ov->plane == NULL || ov->far == NULL || ov->near == NULL) {
+        ov->plane = ov->plane != NULL ? ov->plane : malloc((size_t)nz + 2);
+        ov->far = ov->far != NULL ? ov->far : malloc((size_t)nz * sizeof *ov->far);
+        ov->near = ov->near != NULL ? ov->near : malloc((size_t)nz * sizeof *ov->near);
         if (ov->plane == NULL || ov->far == NULL || ov->near == NULL) {
-            return 0; /* in sequence then: nothing is lost but the overlap */
+            return SOV_NONE; /* in sequence then: nothing is lost but the overlap */
         }
     }
     memset(ov->plane, 0, (size_t)nz + 2);
