@@ -172,17 +172,6 @@ static inline __attribute__((always_inline)) pops_t pops_fixed(const pops_t *p, 
 }
 
 /* Density and momentum of the post-collision populations of cell x. */
-/* The density alone: the same sum, in the same order, as pops_moments'. */
-static inline __attribute__((always_inline)) double pops_density(const pops_t *p, size_t x)
-{
-    double rho = 0.0;
-#pragma GCC unroll 19
-    for (int q = 0; q < LB_Q; q++) {
-        rho += pops_post(p, q, x);
-    }
-    return rho;
-}
-
 static inline __attribute__((always_inline)) double pops_moments(const pops_t *p, size_t x, double j[3])
 {
     double rho = 0.0;

@@ -75,7 +75,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
             if (need_j) {
                 rho = pops_moments(f, cell, j);
             } else {
-                /* pops_density's sum, in its order */
+                /* pops_moments' density: the same sum, in its order */
                 rho = 0.0;
                 const size_t cb0 = cell * esz;
 #pragma GCC unroll 19

@@ -330,7 +330,8 @@ static double link_delta(const spheres_t *sp, int k, int q, double dq, const oth
 }
 
 /* The links of sphere k for its new place when no flag changed since they
- * were built in the same box: the same cells and directions (a link is a
+ * were built in the same box (find_dirty has a sphere whose box moved
+ * built anew: its keys would differ): the same cells and directions (a link is a
  * fluid cell and a solid neighbour, and those did not change) unless one
  * changed hands between spheres, which this sphere or the other sees as a
  * link it no longer wins: 0 then (the list is to be rebuilt), 1 when every
@@ -338,11 +339,6 @@ static double link_delta(const spheres_t *sp, int k, int q, double dq, const oth
 static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, others_t *o, link_list_t *list)
 {
     const sphere_t *p = &sp->s[k];
-    for (int a = 0; a < 3; a++) {
-        if (box_first(p, a) != list->box_lo[a]) {
-            return 0; /* another box (a wrap across a periodic face): other keys */
-        }
-    }
     others_find(sp, k, o);
     const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
     for (size_t n = 0; n < list->n;) {
