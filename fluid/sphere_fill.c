@@ -12,8 +12,6 @@
 #include <math.h>
 #include <string.h>
 
-/* |c_q|^2: the sum cq . cq of the fill, exact in any order */
-static const double lb_cc[LB_Q] = {0, 1, 1, 1, 2, 2, 2, 2, 2, 2, 1, 1, 1, 2, 2, 2, 2, 2, 2};
 
 /* links ahead at which spheres_fill prefetches a cell's populations */
 #define FILL_AHEAD 12
@@ -40,6 +38,10 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
     }
     size_t cell = (size_t)-1;
     double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
+    /* the cell minus the centre, and |dk|^2 - r^2 (spheres_link_cell); the
+     * rays of the cell's links from link n0 on */
+    double dk[3] = {0.0, 0.0, 0.0}, dc = 0.0, ray[LB_Q];
+    size_t n0 = 0;
     /* the load of a cell's links, summed in q order, then added exactly to
      * the sphere's (common/exact_sum.h): the same bits on any ranks. The
      * cells' loads wait in cb and go in FILL_CHUNK at a time, four terms at
@@ -72,6 +74,18 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
                 }
             }
             cell = l->xf;
+            spheres_link_cell(p, l->key, dk, &dc);
+            /* side by side: independent square roots and divisions (one
+             * link at a time, each waited on the one before) */
+            int qs[LB_Q], nq = 0;
+            for (size_t e = n; e < list->n && list->l[e].xf == cell && nq < LB_Q; e++) {
+                qs[nq++] = list->l[e].q;
+            }
+#pragma omp simd
+            for (int jq = 0; jq < nq; jq++) {
+                ray[jq] = spheres_ray(dk, dc, qs[jq]);
+            }
+            n0 = n;
             if (need_j) {
                 rho = pops_moments(f, cell, j);
             } else {
@@ -93,7 +107,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
                 __builtin_prefetch(pb[qq] + ahead, 0);
             }
         }
-        /* the records stream in (104 bytes a link, two or three cache
+        /* the records stream in (72 bytes a link, one or two cache
          * lines), and the look-ahead below reads record n + LINK_AHEAD: with
          * its lines asked for before, the fill took 0.43-0.48 s where it took
          * 0.50-0.59 s (dual star, 200 steps, 168-byte records then; README
@@ -124,14 +138,17 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
                 pops_prefetch(f, pops_post_slot(f, m->q, m->xfff), 0);
             }
         }
-        double wr[3], uw[3];
-        spheres_cross(p->w, l->rw, wr);
+        /* the wall point and delta for the sphere's place now */
+        double rw[3], wr[3], uw[3];
+        const double delta = spheres_link_delta(ray[n - n0]);
+        spheres_wall_point(dk, delta, q, rw);
+        spheres_cross(p->w, rw, wr);
         for (int a = 0; a < 3; a++) {
             uw[a] = p->v[a] + wr[a];
         }
         const double cu = lb_cd[q][0] * uw[0] + lb_cd[q][1] * uw[1] + lb_cd[q][2] * uw[2];
         boundary_coef_t co;
-        boundary_coefficients(sp->scheme, l->delta, l->have & 1, l->have >> 1 & 1, sp->omega_minus, &co);
+        boundary_coefficients(sp->scheme, delta, l->have & 1, l->have >> 1 & 1, sp->omega_minus, &co);
         const double A = co.a[0] + co.a[1] + co.a[2];
         const double f_old = pops_post(f, q, l->xf);
         double f_new = co.a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
@@ -206,7 +223,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
             }
         }
         double t[3];
-        spheres_cross(l->rw, df, t);
+        spheres_cross(rw, df, t);
         for (int a = 0; a < 3; a++) {
             cl[a] += df[a];
             cl[3 + a] += t[a];
@@ -216,7 +233,7 @@ static inline __attribute__((always_inline)) void fill_sphere(spheres_t *sp, con
          * w (u_w = v + w x r_w, so c . u_w = c . v + w . (r_w x c)) */
         const double cq[3] = {lb_cd[q][0], lb_cd[q][1], lb_cd[q][2]};
         double rc[3];
-        spheres_cross(l->rw, cq, rc);
+        spheres_cross(rw, cq, rc);
         const double k = A * 6.0 * lb_w[q] * rho / 3.0;
         cl[6] += k * lb_cc[q];
         cl[7] += k * (rc[0] * rc[0] + rc[1] * rc[1] + rc[2] * rc[2]);

@@ -16,26 +16,14 @@
 #include <string.h>
 
 /* delta of the rays x + t c_q, t in (0, 1], for q = qs[0..n), against a
- * sphere of radius r whose centre is at x - d; 0 where a ray starts inside
- * or misses. Without a branch (the comparisons as bits, the square root
- * of a non-negative number: -fno-math-errno), so that the rays are
- * independent chains of a square root and a division, which the compiler
- * puts side by side in vector registers and the core overlaps; where a ray
- * hits, t is the value of the root itself, as a ray at a time gave it. */
+ * sphere of radius r whose centre is at x - d (spheres_ray): side by side. */
 static inline __attribute__((always_inline)) void ray_deltas(const double d[3], const int *qs, int n, double r,
                                                              double *out)
 {
     const double c = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - r * r;
 #pragma omp simd
     for (int j = 0; j < n; j++) {
-        const int q = qs[j];
-        const double cc = (double)(lb_c[q][0] * lb_c[q][0] + lb_c[q][1] * lb_c[q][1] + lb_c[q][2] * lb_c[q][2]);
-        const double b = d[0] * lb_c[q][0] + d[1] * lb_c[q][1] + d[2] * lb_c[q][2];
-        const double disc = b * b - cc * c;
-        /* smaller root, written to avoid cancellation */
-        const double t = c / (-b + sqrt(disc >= 0.0 ? disc : 0.0));
-        const int hit = (c > 0.0) & (disc >= 0.0) & (b < 0.0) & (t > 0.0) & (t <= 1.0 + 1e-12);
-        out[j] = hit ? (t < 1.0 ? t : 1.0) : 0.0;
+        out[j] = spheres_ray(d, c, qs[j]);
     }
 }
 
@@ -249,29 +237,24 @@ static void others_free(others_t *o)
     free(o->dnear);
 }
 
-/* What a link's geometry gives it: delta (and so the scheme's
- * coefficients), the wall point, the film partner (dk: x_f - c_k). */
-static inline void link_geometry(const spheres_t *sp, int k, sphere_link_t *l, const double dk[3], double delta,
-                                 const others_t *o)
+/* The film partner of a link's wall point (dk: x_f - c_k; delta, its own
+ * ray's: link_delta). The wall point as the fill derives it
+ * (spheres_link_geometry). */
+static inline int link_film(const spheres_t *sp, int k, int q, const double dk[3], double delta, const others_t *o)
 {
-    l->delta = delta;
-    for (int a = 0; a < 3; a++) {
-        l->rw[a] = dk[a] + delta * lb_c[l->q][a];
+    if (!o->film) {
+        return -1;
     }
-    l->film = o->film ? film_partner(sp, k, l->rw, o->cand, o->rel, o->nc) : -1;
+    double rw[3];
+    for (int a = 0; a < 3; a++) {
+        rw[a] = dk[a] + delta * lb_c[q][a];
+    }
+    return film_partner(sp, k, rw, o->cand, o->rel, o->nc);
 }
 
 /* The first cell along axis a of the box a sphere's links are built in
  * (unwrapped global coordinates): it fixes the keys (link_key). */
 static inline int box_first(const sphere_t *p, int a) { return (int)floor(p->c[a] - p->r) - 1; }
-
-/* The cell (unwrapped global coordinates) of a link's key. */
-static void key_cell(uint64_t key, int X[3])
-{
-    X[0] = (int)(key >> 5 & 0xffff) - 32768;
-    X[1] = (int)(key >> 21 & 0xffff) - 32768;
-    X[2] = (int)(key >> 37) - 32768;
-}
 
 /* The other spheres near sphere k (candidates without k itself), their
  * centres relative to c_k, and whether its wall points can have a film. */
@@ -329,53 +312,170 @@ static double link_delta(const spheres_t *sp, int k, int q, double dq, const oth
     return delta;
 }
 
+/* How far (cells) the other spheres may move before a refresh checks all
+ * the links of a sphere again (sphere_refresh): the cells within this of
+ * a ray's reach of another sphere are checked at every refresh. */
+#define SPHERES_NEAR_MARGIN 0.5
+
+/* 1 when a cell at dk from c_k is within SPHERES_NEAR_MARGIN of a ray's
+ * reach of another sphere near k (near_candidates: within r_m + sqrt 2). */
+static int near_any(const spheres_t *sp, const double dk[3], const others_t *o)
+{
+    for (int c = 0; c < o->nc; c++) {
+        const double dm[3] = {dk[0] + o->rel[c][0], dk[1] + o->rel[c][1], dk[2] + o->rel[c][2]};
+        const double rm = sp->s[o->cand[c]].r + 1.4143 + SPHERES_NEAR_MARGIN;
+        if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] <= rm * rm) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* A cell whose links start at index first goes in the list's near cells
+ * when another sphere is (nearly) within reach: 0 when out of memory. */
+static int note_near(link_list_t *list, size_t first, int nn, const double dk[3], const spheres_t *sp,
+                     const others_t *o)
+{
+    if (nn == 0 && !near_any(sp, dk, o)) {
+        return 1;
+    }
+    if (!spheres_grow((void **)&list->near, &list->capnear, list->nnear + 1, sizeof *list->near)) {
+        return 0;
+    }
+    list->near[list->nnear++] = first;
+    return 1;
+}
+
+/* After every link of a list was checked (built or refreshed in full): the
+ * others near it and their centres now, for the refreshes that check only
+ * the near cells (sphere_refresh). */
+static void note_checked(const spheres_t *sp, link_list_t *list, const others_t *o, int checked, int fresh_set)
+{
+    list->ncand = o->nc;
+    for (int c = 0; c < o->nc; c++) {
+        list->cand[c] = o->cand[c];
+        memcpy(list->cand_c[c], sp->s[o->cand[c]].c, sizeof list->cand_c[c]);
+    }
+    list->checked = checked;
+    list->film_set = o->film;
+    list->fresh_set = fresh_set;
+}
+
+/* 1 when only the near cells of list need checking: the others near k
+ * are the same as when all its links were, none has moved by
+ * SPHERES_NEAR_MARGIN since, and no link has or can have a film partner.
+ * Then a far cell has no other sphere within a ray's reach, so its links
+ * are k's as they were (a link changes hands only to a sphere within
+ * reach of its cell), its cell is still fluid and its solid neighbour
+ * still inside k (else a flag changed near k, and find_dirty has it built
+ * anew), and its wall distance is k's own ray (spheres_link_geometry). */
+static int near_check_holds(const spheres_t *sp, const link_list_t *list, const others_t *o)
+{
+    if (!list->checked || list->film_set || o->film || o->nc != list->ncand) {
+        return 0;
+    }
+    for (int c = 0; c < o->nc; c++) {
+        double d[3];
+        if (o->cand[c] != list->cand[c]) {
+            return 0;
+        }
+        spheres_min_image(sp, sp->s[o->cand[c]].c, list->cand_c[c], d);
+        if (!(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < SPHERES_NEAR_MARGIN * SPHERES_NEAR_MARGIN)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* The links of one cell of sphere k's list, from index n (*end: past its
+ * last), checked for k's new place: 0 when one is no longer k's. full:
+ * their fresh marks and film partners set, and the cell noted as near or
+ * not (note_near; *checked 0 when out of memory). */
+static int refresh_cell(spheres_t *sp, const uint8_t *flags, int k, others_t *o, link_list_t *list, size_t n,
+                        int full, size_t *end, int *checked, int *fresh_set)
+{
+    const sphere_t *p = &sp->s[k];
+    const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
+    int X[3];
+    spheres_key_cell(list->l[n].key, X);
+    const double dk[3] = {X[0] - p->c[0], X[1] - p->c[1], X[2] - p->c[2]};
+    const double dd = dk[0] * dk[0] + dk[1] * dk[1] + dk[2] * dk[2];
+    if (dd > reach2 || dd <= r2) {
+        return 0;
+    }
+    const int nn = near_candidates(sp, dk, o);
+    size_t e = n;
+    int qs[LB_Q], nq = 0;
+    double dl[LB_Q];
+    for (; e < list->n && list->l[e].xf == list->l[n].xf; e++) {
+        qs[nq++] = list->l[e].q;
+    }
+    ray_deltas(dk, qs, nq, p->r, dl);
+    int Y[3] = {0, 0, 0};
+    for (int jq = 0; jq < nq; jq++) {
+        sphere_link_t *l = &list->l[n + (size_t)jq];
+        double xb[3] = {0.0, 0.0, 0.0};
+        if (dl[jq] == 0.0) {
+            spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y);
+            for (int a = 0; a < 3; a++) {
+                xb[a] = Y[a] + sp->lo[a] + lb_c[l->q][a];
+            }
+        }
+        const double delta = link_delta(sp, k, l->q, dl[jq], o, nn, xb);
+        if (delta <= 0.0) {
+            return 0;
+        }
+        if (full) {
+            l->fresh = (flags[l->xf] & FLAG_FRESH) != 0;
+            *fresh_set |= l->fresh;
+            l->film = link_film(sp, k, l->q, dk, delta, o);
+        }
+    }
+    if (full && !note_near(list, n, nn, dk, sp, o)) {
+        *checked = 0;
+    }
+    *end = e;
+    return 1;
+}
+
 /* The links of sphere k for its new place when no flag changed since they
  * were built in the same box (find_dirty has a sphere whose box moved
  * built anew: its keys would differ): the same cells and directions (a link is a
  * fluid cell and a solid neighbour, and those did not change) unless one
  * changed hands between spheres, which this sphere or the other sees as a
  * link it no longer wins: 0 then (the list is to be rebuilt), 1 when every
- * link is still k's, its geometry as sphere_links would give it. */
+ * link is still k's (their geometry follows from the new centre:
+ * spheres_link_geometry). Only the near cells are checked while
+ * near_check_holds; else all, and the near cells noted anew. */
 static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, others_t *o, link_list_t *list)
 {
-    const sphere_t *p = &sp->s[k];
     others_find(sp, k, o);
-    const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
-    for (size_t n = 0; n < list->n;) {
-        int X[3];
-        key_cell(list->l[n].key, X);
-        const double dk[3] = {X[0] - p->c[0], X[1] - p->c[1], X[2] - p->c[2]};
-        const double dd = dk[0] * dk[0] + dk[1] * dk[1] + dk[2] * dk[2];
-        if (dd > reach2 || dd <= r2) {
-            return 0;
-        }
-        const int nn = near_candidates(sp, dk, o);
-        size_t e = n;
-        int qs[LB_Q], nq = 0;
-        double dl[LB_Q];
-        for (; e < list->n && list->l[e].xf == list->l[n].xf; e++) {
-            qs[nq++] = list->l[e].q;
-        }
-        ray_deltas(dk, qs, nq, p->r, dl);
-        int Y[3] = {0, 0, 0};
-        for (int jq = 0; jq < nq; jq++) {
-            sphere_link_t *l = &list->l[n + (size_t)jq];
-            double xb[3] = {0.0, 0.0, 0.0};
-            if (dl[jq] == 0.0) {
-                spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Y);
-                for (int a = 0; a < 3; a++) {
-                    xb[a] = Y[a] + sp->lo[a] + lb_c[l->q][a];
-                }
-            }
-            const double delta = link_delta(sp, k, l->q, dl[jq], o, nn, xb);
-            if (delta <= 0.0) {
+    int checked = 1, fresh_set = 0;
+    size_t e;
+    if (near_check_holds(sp, list, o)) {
+        for (size_t j = 0; j < list->nnear; j++) {
+            if (!refresh_cell(sp, flags, k, o, list, list->near[j], 0, &e, &checked, &fresh_set)) {
                 return 0;
             }
-            l->fresh = (flags[l->xf] & FLAG_FRESH) != 0;
-            link_geometry(sp, k, l, dk, delta, o);
         }
-        n = e;
+        if (list->fresh_set) {
+            /* fresh marks belong to the map that uncovered the cells */
+            for (size_t n = 0; n < list->n; n++) {
+                list->l[n].fresh = 0;
+            }
+            list->fresh_set = 0;
+        }
+        list->near_refreshes++;
+        return 1;
     }
+    list->nnear = 0;
+    for (size_t n = 0; n < list->n; n = e) {
+        if (!refresh_cell(sp, flags, k, o, list, n, 1, &e, &checked, &fresh_set)) {
+            list->checked = 0;
+            return 0;
+        }
+    }
+    note_checked(sp, list, o, checked, fresh_set);
     return 1;
 }
 
@@ -386,12 +486,15 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
     if (!sp->carried && !carry_out(sp, list)) {
         return 0;
     }
+    list->checked = 0;
+    list->nnear = 0;
     if (!spheres_near_block(sp, p->c, p->r + 2.0, sp->lo, sp->nb)) {
         list->n = 0;
         list->ncarry = 0;
         return 1; /* no cell of this block links to it */
     }
     others_find(sp, k, o);
+    int checked = 1, fresh_set = 0;
     const double reach2 = (p->r + 1.4143) * (p->r + 1.4143), r2 = p->r * p->r;
     ptrdiff_t off[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
@@ -476,6 +579,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     qs[nq++] = __builtin_ctz(solid);
                 }
                 ray_deltas(dk, qs, nq, p->r, dl);
+                const size_t nl_first = nl;
+                int linked = 0;
                 for (int jq = 0; jq < nq; jq++) {
                     const int q = qs[jq];
                     /* Eq. 5: the nearest intersection over the candidates wins
@@ -508,7 +613,12 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     const int have_ff = fluid_at(sp, g, flags, Y, deep, i, off[q], q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, deep, i, off[q], q, 2, &l->xfff);
                     l->have = (uint8_t)(have_ff | have_fff << 1);
-                    link_geometry(sp, k, l, dk, delta, o);
+                    l->film = link_film(sp, k, q, dk, delta, o);
+                    fresh_set |= l->fresh;
+                    linked = 1;
+                }
+                if (linked && !note_near(list, nl_first, nn, dk, sp, o)) {
+                    checked = 0;
                 }
             }
         }
@@ -517,6 +627,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
     list->cap = cap;
     list->n = nl;
     carry_in(list);
+    note_checked(sp, list, o, checked, fresh_set);
     return 1;
 }
 
@@ -558,7 +669,7 @@ static int handovers_found(spheres_t *sp, const grid_t *g, const uint8_t *flags,
                 continue; /* still m's */
             }
             int X[3], Y[3], B[3], W[3];
-            key_cell(key, X);
+            spheres_key_cell(key, X);
             const int q = (int)(key & 31);
             for (int a = 0; a < 3; a++) {
                 B[a] = X[a] + lb_c[q][a];

@@ -166,6 +166,13 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     if (sp->s == NULL || sp->lists == NULL || sp->accbuf == NULL || sp->kin == NULL || sp->dirty == NULL) {
         return log_msg(log, STATUS_ERROR, "fluid", "out of memory for %d spheres", sp->n);
     }
+    for (int k = 0; k < sp->n; k++) {
+        sp->lists[k].cand = malloc((size_t)sp->n * sizeof *sp->lists[k].cand);
+        sp->lists[k].cand_c = malloc((size_t)sp->n * sizeof *sp->lists[k].cand_c);
+        if (sp->lists[k].cand == NULL || sp->lists[k].cand_c == NULL) {
+            return log_msg(log, STATUS_ERROR, "fluid", "out of memory for %d spheres", sp->n);
+        }
+    }
     int k = 0;
     for (int b = 0; b < s->nbodies; b++) {
         const scene_body_t *body = &s->bodies[b];
@@ -224,6 +231,9 @@ void spheres_free(spheres_t *sp)
         free(sp->lists[k].carry);
         free(sp->lists[k].inside);
         free(sp->lists[k].oldkey);
+        free(sp->lists[k].near);
+        free(sp->lists[k].cand);
+        free(sp->lists[k].cand_c);
     }
     free(sp->lists);
     free(sp->dirty);
@@ -424,6 +434,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
             for (size_t j = 0; j < sp->lists[k].n; j++) {
                 sp->lists[k].l[j].fresh = 0;
             }
+            sp->lists[k].fresh_set = 0;
         }
         sp->nfresh = 0;
         /* the cells of other ranks the links read, this step's values */

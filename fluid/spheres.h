@@ -79,15 +79,16 @@ typedef struct {
 
 /* Link from fluid cell x_f along c_q into a solid cell: it writes
  * in_slot(qbar, x_f) (layout.h), the population x_f receives from the solid.
- * 104 bytes (168 with the scheme's coefficients kept in it: the refresh
- * wrote and the fill read them every step, for a moving sphere, where the
- * fill now derives them from delta and have). */
+ * 72 bytes. Its geometry is derived where it is used, not kept: delta
+ * (Eq. 5) and the wall point from the cell (key), q and the sphere's centre
+ * (spheres_link_geometry), and from delta and have the scheme's
+ * coefficients (boundary_coefficients): f_new = sum a_k f~_q(x_f - k c_q) +
+ * sum b_k f~_qbar(x_f - k c_q) + moving term + corr n_q^-(x_f),
+ * pre-collision (boundary.h). (Kept, they made a record of 168 bytes, then
+ * 104, that the links' stage wrote and the fill read every step for a
+ * moving sphere.) */
 typedef struct {
     size_t xf, xff, xfff; /* interior cells along -c_q (periodic wrap applied) */
-    double rw[3];         /* wall point minus sphere centre */
-    double delta;         /* Eq. 5; with have, the scheme's coefficients (boundary_coefficients):
-                           * f_new = sum a_k f~_q(x_f - k c_q) + sum b_k f~_qbar(x_f - k c_q) + moving term
-                           * + corr n_q^-(x_f), pre-collision (boundary.h) */
     double fnew;          /* outer: the value to write, held back (SPHERES_HOLD_OUTER) */
     /* multireflection: the pre-collision pair (f_q, f_qbar) of x_f for the
      * next fill, which the fill keeps as it goes: f_q is the post-collision
@@ -129,6 +130,20 @@ typedef struct {
     size_t nold, capold;
     size_t ninside, capinside;
     int box_lo[3];          /* the first cell of the box the links were built in (sphere_links.c) */
+    /* what a refresh needs to check (sphere_links.c sphere_refresh): the
+     * links of the cells that another sphere's ray could reach once it has
+     * moved by less than SPHERES_NEAR_MARGIN (their first links' indices),
+     * the other spheres near this one and their centres when that was
+     * found, and whether it holds: no link has a film partner or is fresh */
+    size_t *near;
+    size_t nnear, capnear;
+    int *cand;
+    double (*cand_c)[3];
+    int ncand;
+    int checked;            /* near, cand, cand_c hold for the links as they are */
+    int film_set;           /* some link may have a film partner */
+    int fresh_set;          /* some link may be marked fresh */
+    long near_refreshes;    /* refreshes that checked the near cells alone (a count for the tests) */
 } link_list_t;
 
 typedef struct spheres_s {

@@ -4,6 +4,7 @@
 #ifndef FLUID_SPHERES_INTERNAL_H
 #define FLUID_SPHERES_INTERNAL_H
 
+#include "lattice.h"
 #include "spheres.h"
 
 #include <math.h>
@@ -55,6 +56,68 @@ static inline void spheres_cross(const double a[3], const double b[3], double c[
     c[0] = a[1] * b[2] - a[2] * b[1];
     c[1] = a[2] * b[0] - a[0] * b[2];
     c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* The ray x + t c_q, t in (0, 1], against a sphere of radius r whose
+ * centre is at x - d, c = |d|^2 - r^2: its delta, 0 where it starts inside
+ * or misses. Without a branch (the comparisons as bits, the square root of
+ * a non-negative number: -fno-math-errno), so that rays side by side are
+ * independent chains of a square root and a division, which the compiler
+ * puts in vector registers and the core overlaps; where a ray hits, t is
+ * the value of the root itself, as a ray at a time gives it (the same bits
+ * in the links' build and in the fill, which derives delta from it). */
+static inline __attribute__((always_inline)) double spheres_ray(const double d[3], double c, int q)
+{
+    const double b = d[0] * lb_cd[q][0] + d[1] * lb_cd[q][1] + d[2] * lb_cd[q][2];
+    const double disc = b * b - lb_cc[q] * c;
+    /* smaller root, written to avoid cancellation */
+    const double t = c / (-b + sqrt(disc >= 0.0 ? disc : 0.0));
+    const int hit = (c > 0.0) & (disc >= 0.0) & (b < 0.0) & (t > 0.0) & (t <= 1.0 + 1e-12);
+    return hit ? (t < 1.0 ? t : 1.0) : 0.0;
+}
+
+/* The cell (unwrapped global coordinates) of a link's key (sphere_links.c
+ * link_key). */
+static inline void spheres_key_cell(uint64_t key, int X[3])
+{
+    X[0] = (int)(key >> 5 & 0xffff) - 32768;
+    X[1] = (int)(key >> 21 & 0xffff) - 32768;
+    X[2] = (int)(key >> 37) - 32768;
+}
+
+/* A link's wall distance and wall point for its sphere p's centre, derived
+ * from the link's cell and q (not kept in it: sphere_link_t). The link is
+ * p's (the links' stage checked that no other sphere's ray from its cell
+ * hits first), so delta is p's own ray (Eq. 5), or 1 where that ray only
+ * touches the surface at t = 1 (its solid cell sits on it): what
+ * sphere_links.c link_delta gives it. spheres_link_cell: the cell (key)
+ * minus c_p, dk, and *c = |dk|^2 - r^2, the same for all the links of a
+ * cell; spheres_link_geometry: delta (spheres_link_delta of the ray), and
+ * rw = x_f + delta c_q - c_p (spheres_wall_point). */
+static inline void spheres_link_cell(const sphere_t *p, uint64_t key, double dk[3], double *c)
+{
+    int X[3];
+    spheres_key_cell(key, X);
+    for (int a = 0; a < 3; a++) {
+        dk[a] = X[a] - p->c[a]; /* the box is about c_p: X - c_p is the minimum image */
+    }
+    *c = dk[0] * dk[0] + dk[1] * dk[1] + dk[2] * dk[2] - p->r * p->r;
+}
+
+static inline double spheres_link_delta(double ray) { return ray > 0.0 ? ray : 1.0; }
+
+static inline void spheres_wall_point(const double dk[3], double delta, int q, double rw[3])
+{
+    for (int a = 0; a < 3; a++) {
+        rw[a] = dk[a] + delta * lb_cd[q][a];
+    }
+}
+
+static inline double spheres_link_geometry(const double dk[3], double c, int q, double rw[3])
+{
+    const double delta = spheres_link_delta(spheres_ray(dk, c, q));
+    spheres_wall_point(dk, delta, q, rw);
+    return delta;
 }
 
 /* The sphere whose surface is nearest to point x (global coordinates), and x
