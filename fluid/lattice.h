@@ -42,10 +42,12 @@ static const double lb_w[LB_Q] = {
     1.0 / 18.0, 1.0 / 18.0, 1.0 / 18.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0,
 };
 
-static inline int lb_opposite(int q)
-{
-    return q == 0 ? 0 : (q <= LB_HALF ? q + LB_HALF : q - LB_HALF);
-}
+/* The opposite direction: a table, not a comparison (a link's q varies
+ * from one to the next, and a branch on it was mispredicted about every
+ * other link in the fill); a q known at compile time folds to a constant. */
+static const unsigned char lb_opp[LB_Q] = {0, 10, 11, 12, 13, 14, 15, 16, 17, 18, 1, 2, 3, 4, 5, 6, 7, 8, 9};
+
+static inline int lb_opposite(int q) { return lb_opp[q]; }
 
 /* The directions with component dir (+1 or -1) along axis a, in q order:
  * the 5 that cross a face of a cell. Returns how many. */
