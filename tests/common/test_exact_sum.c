@@ -121,23 +121,31 @@ static int same_sum(const xsum_t *a0, const xsum_t *b0)
     return memcmp(a.l, b.l, sizeof a.l) == 0 && (a.big == b.big || (isnan(a.big) && isnan(b.big)));
 }
 
-/* xsum_add of v[0..n) one term at a time and xsum_add_array of the same:
- * 1 when their limbs (normalised) and plain parts agree */
+/* xsum_add of v[0..n) one term at a time and xsum_add_array2,
+ * xsum_add_array4 and xsum_add_array of the same: 1 when all their limbs
+ * (normalised) and plain parts agree */
 static int array_matches(const double *v, int n)
 {
-    xsum_t a, b;
+    void (*const arrays[3])(xsum_t *, const double *, int) = {xsum_add_array2, xsum_add_array4, xsum_add_array};
+    xsum_t a;
     xsum_zero(&a);
-    xsum_zero(&b);
     for (int i = 0; i < n; i++) {
         xsum_add(&a, v[i]);
     }
-    xsum_add_array(&b, v, n);
-    return same_sum(&a, &b);
+    int same = 1;
+    for (int k = 0; k < 3; k++) {
+        xsum_t b;
+        xsum_zero(&b);
+        arrays[k](&b, v, n);
+        same = same && same_sum(&a, &b);
+    }
+    return same;
 }
 
-/* xsum_add_array is xsum_add term by term: the same limbs, also for ties at
- * 2^-89 (rounded to even), terms beyond 2^40 and NaN, and lengths that are no
- * multiple of four; and over more terms than its lanes hold before a flush */
+/* xsum_add_array (two and four lanes) is xsum_add term by term: the same
+ * limbs, also for ties at 2^-89 (rounded to even), terms beyond 2^40 and
+ * NaN, and lengths that are no multiple of the lanes; and over more terms
+ * than its lanes hold before a flush */
 static void test_array_equals_term_by_term(void)
 {
     enum { N = 1100000 };
@@ -177,6 +185,6 @@ void exact_sum_register_tests(void)
                 test_order_and_exact_value);
     CU_add_test(s, "each term is rounded to a multiple of 2^-88, to nearest, ties to even",
                 test_rounding_to_nearest_even);
-    CU_add_test(s, "four terms at a time (xsum_add_array) give the limbs of one at a time",
+    CU_add_test(s, "two or four terms at a time (xsum_add_array) give the limbs of one at a time",
                 test_array_equals_term_by_term);
 }
