@@ -348,11 +348,23 @@ static int note_near(link_list_t *list, size_t first, int nn, const double dk[3]
 
 /* After every link of a list was checked (built or refreshed in full): the
  * others near it and their centres now, for the refreshes that check only
- * the near cells (sphere_refresh). */
+ * the near cells (sphere_refresh); room for those alone (a list with room
+ * for every sphere would take memory growing with their number squared). */
 static void note_checked(const spheres_t *sp, link_list_t *list, const others_t *o, int checked, int fresh_set)
 {
-    list->ncand = o->nc;
-    for (int c = 0; c < o->nc; c++) {
+    const size_t need = ((size_t)o->nc + 8) / 8 * 8;
+    if (need > list->capcand) {
+        int *c = realloc(list->cand, need * sizeof *list->cand);
+        list->cand = c != NULL ? c : list->cand;
+        double(*cc)[3] = c != NULL ? realloc(list->cand_c, need * sizeof *list->cand_c) : NULL;
+        list->cand_c = cc != NULL ? cc : list->cand_c;
+        list->capcand = c != NULL && cc != NULL ? need : 0;
+    }
+    if (need > list->capcand) {
+        checked = 0; /* out of memory: the next refresh checks every cell */
+    }
+    list->ncand = checked ? o->nc : 0;
+    for (int c = 0; c < list->ncand; c++) {
         list->cand[c] = o->cand[c];
         memcpy(list->cand_c[c], sp->s[o->cand[c]].c, sizeof list->cand_c[c]);
     }

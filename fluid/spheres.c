@@ -166,13 +166,6 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     if (sp->s == NULL || sp->lists == NULL || sp->accbuf == NULL || sp->kin == NULL || sp->dirty == NULL) {
         return log_msg(log, STATUS_ERROR, "fluid", "out of memory for %d spheres", sp->n);
     }
-    for (int k = 0; k < sp->n; k++) {
-        sp->lists[k].cand = malloc((size_t)sp->n * sizeof *sp->lists[k].cand);
-        sp->lists[k].cand_c = malloc((size_t)sp->n * sizeof *sp->lists[k].cand_c);
-        if (sp->lists[k].cand == NULL || sp->lists[k].cand_c == NULL) {
-            return log_msg(log, STATUS_ERROR, "fluid", "out of memory for %d spheres", sp->n);
-        }
-    }
     int k = 0;
     for (int b = 0; b < s->nbodies; b++) {
         const scene_body_t *body = &s->bodies[b];

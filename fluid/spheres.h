@@ -140,6 +140,7 @@ typedef struct {
     int *cand;
     double (*cand_c)[3];
     int ncand;
+    size_t capcand;
     int checked;            /* near, cand, cand_c hold for the links as they are */
     int film_set;           /* some link may have a film partner */
     int fresh_set;          /* some link may be marked fresh */
