@@ -230,6 +230,7 @@ void spheres_free(spheres_t *sp)
     }
     free(sp->lists);
     free(sp->dirty);
+    free(sp->parts);
     free(sp->changed);
     free(sp->solid);
     free(sp->fresh);

@@ -147,6 +147,14 @@ typedef struct {
     long near_refreshes;    /* refreshes that checked the near cells alone (a count for the tests) */
 } link_list_t;
 
+/* A part of a sphere's list that one thread fills, and its load
+ * (spheres_fill). */
+typedef struct {
+    xsum_t acc[8];
+    size_t begin, end;
+    int sphere;
+} spheres_fill_part_t;
+
 typedef struct spheres_s {
     int n;
     sphere_t *s;
@@ -163,6 +171,8 @@ typedef struct spheres_s {
     long partial, partial_failed;   /* maps that rebuilt the dirty spheres' lists and refreshed the others, or
                                      * tried and rebuilt all (sphere_links.c) */
     uint8_t *dirty;                 /* per sphere: a cell within reach of it changed, or its box moved */
+    spheres_fill_part_t *parts;         /* the parts of the lists the fill's threads take (spheres_fill) */
+    size_t cap_parts;
     int (*changed)[3];              /* cells covered or uncovered by this map (global coordinates) */
     size_t nchanged, capchanged;
     int periodic[3];      /* periodic axes of the domain (period N) */
