@@ -2,8 +2,8 @@
  * (spheres.h "fill"): for every link, the population the wall sends into
  * the fluid (boundary.c's scheme, the moving-wall term of Eq. 6 and the
  * multireflection correction), and the load it exchanges with the sphere
- * (Eq. 7), summed per sphere in a fixed order and exactly; in parallel over
- * spheres, each with its own list of links (sphere_links.c). */
+ * (Eq. 7), summed per cell in link order and then exactly per sphere; in
+ * parallel over parts of the spheres' lists of links (sphere_links.c). */
 #include "spheres_internal.h"
 
 #include "boundary.h"
