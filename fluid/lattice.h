@@ -42,9 +42,10 @@ static const double lb_w[LB_Q] = {
     1.0 / 18.0, 1.0 / 18.0, 1.0 / 18.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0, 1.0 / 36.0,
 };
 
-/* The opposite direction: a table, not a comparison (a link's q varies
- * from one to the next, and a branch on it was mispredicted about every
- * other link in the fill); a q known at compile time folds to a constant. */
+/* The opposite direction, from a table rather than two comparisons (the
+ * fill asks it for a q that varies from one link to the next: 4% fewer
+ * instructions there, callgrind); a q known at compile time folds to a
+ * constant. */
 static const unsigned char lb_opp[LB_Q] = {0, 10, 11, 12, 13, 14, 15, 16, 17, 18, 1, 2, 3, 4, 5, 6, 7, 8, 9};
 
 static inline int lb_opposite(int q) { return lb_opp[q]; }

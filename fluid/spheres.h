@@ -171,7 +171,7 @@ typedef struct spheres_s {
     long partial, partial_failed;   /* maps that rebuilt the dirty spheres' lists and refreshed the others, or
                                      * tried and rebuilt all (sphere_links.c) */
     uint8_t *dirty;                 /* per sphere: a cell within reach of it changed, or its box moved */
-    spheres_fill_part_t *parts;         /* the parts of the lists the fill's threads take (spheres_fill) */
+    spheres_fill_part_t *parts;     /* the parts of the lists the fill's threads take (spheres_fill) */
     size_t cap_parts;
     int (*changed)[3];              /* cells covered or uncovered by this map (global coordinates) */
     size_t nchanged, capchanged;
