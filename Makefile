@@ -156,10 +156,10 @@ FMU_RIGID_LIBS := $(shell pkg-config --libs libcyaml yaml-0.1 2>/dev/null) -lsun
 fmu_obj = $(patsubst %.c,$(BUILD)/fmu/obj/%.o,$(1))
 
 $(call obj,coupler/export.c coupler/fmu.c): CFLAGS += $(shell pkg-config --cflags libxml-2.0 libzip 2>/dev/null)
-# the link scan's ray tests are a vector loop with square roots (fluid/
-# sphere_links.c ray_deltas); nothing there reads errno
-$(call obj,fluid/sphere_links.c): CFLAGS += -fno-math-errno
-$(call fmu_obj,fluid/sphere_links.c): FMU_CFLAGS += -fno-math-errno
+# the link scan's and the fill's ray tests are a vector loop with square
+# roots (fluid/spheres_internal.h spheres_rays); nothing there reads errno
+$(call obj,fluid/sphere_links.c fluid/sphere_fill.c): CFLAGS += -fno-math-errno
+$(call fmu_obj,fluid/sphere_links.c fluid/sphere_fill.c): FMU_CFLAGS += -fno-math-errno
 $(BUILD)/coupler: LDLIBS += $(shell pkg-config --libs libxml-2.0 libzip 2>/dev/null)
 
 $(BUILD)/fmu/obj/%.o: %.c

@@ -46,9 +46,9 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
     }
     size_t cell = (size_t)-1;
     double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
-    /* the cell minus the centre, and |dk|^2 - r^2 (spheres_link_cell); the
-     * rays of the cell's links from link n0 on */
-    double dk[3] = {0.0, 0.0, 0.0}, dc = 0.0, ray[LB_Q];
+    /* the cell minus the centre (spheres_link_cell); the rays of the cell's
+     * links from link n0 on */
+    double dk[3] = {0.0, 0.0, 0.0}, ray[LB_Q];
     size_t n0 = 0;
     /* the load of a cell's links, summed in q order, then added exactly to
      * the sphere's (common/exact_sum.h): the same bits on any ranks. The
@@ -82,17 +82,14 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
                 }
             }
             cell = l->xf;
-            spheres_link_cell(p, l->key, dk, &dc);
+            spheres_link_cell(p, l->key, dk);
             /* side by side: independent square roots and divisions (one
              * link at a time, each waited on the one before) */
             int qs[LB_Q], nq = 0;
             for (size_t e = n; e < n_end && list->l[e].xf == cell && nq < LB_Q; e++) {
                 qs[nq++] = list->l[e].q;
             }
-#pragma omp simd
-            for (int jq = 0; jq < nq; jq++) {
-                ray[jq] = spheres_ray(dk, dc, qs[jq]);
-            }
+            spheres_rays(dk, qs, nq, p->r, ray);
             n0 = n;
             if (need_j) {
                 rho = pops_moments(f, cell, j);

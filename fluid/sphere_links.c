@@ -15,18 +15,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* delta of the rays x + t c_q, t in (0, 1], for q = qs[0..n), against a
- * sphere of radius r whose centre is at x - d (spheres_ray): side by side. */
-static inline __attribute__((always_inline)) void ray_deltas(const double d[3], const int *qs, int n, double r,
-                                                             double *out)
-{
-    const double c = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - r * r;
-#pragma omp simd
-    for (int j = 0; j < n; j++) {
-        out[j] = spheres_ray(d, c, qs[j]);
-    }
-}
-
 /* 1 when the cell k steps back along c_q from cell i at local X is fluid
  * (its index in *out). deep: X is k or more cells inside the block on every
  * axis, so that the cell is in the block and its index is i - k off_q, what
@@ -238,17 +226,14 @@ static void others_free(others_t *o)
 }
 
 /* The film partner of a link's wall point (dk: x_f - c_k; delta, its own
- * ray's: link_delta). The wall point as the fill derives it
- * (spheres_link_geometry). */
+ * ray's: link_delta), the wall point as the fill derives it. */
 static inline int link_film(const spheres_t *sp, int k, int q, const double dk[3], double delta, const others_t *o)
 {
     if (!o->film) {
         return -1;
     }
     double rw[3];
-    for (int a = 0; a < 3; a++) {
-        rw[a] = dk[a] + delta * lb_c[q][a];
-    }
+    spheres_wall_point(dk, delta, q, rw);
     return film_partner(sp, k, rw, o->cand, o->rel, o->nc);
 }
 
@@ -271,18 +256,29 @@ static void others_find(const spheres_t *sp, int k, others_t *o)
     o->film = film_possible(sp, k, o->cand, o->rel, o->nc);
 }
 
+/* How far (cells) the other spheres may move before a refresh checks all
+ * the links of a sphere again (sphere_refresh): the cells within this of
+ * a ray's reach of another sphere are checked at every refresh. */
+#define SPHERES_NEAR_MARGIN 0.5
+
 /* The others a ray of length sqrt 2 from a cell at dk from c_k can reach
- * (the same for every q), in increasing index: their count. */
-static int near_candidates(const spheres_t *sp, const double dk[3], others_t *o)
+ * (the same for every q), in increasing index: their count. *within (unless
+ * NULL): 1 when one is within SPHERES_NEAR_MARGIN of that reach too. */
+static int near_candidates(const spheres_t *sp, const double dk[3], others_t *o, int *within)
 {
-    int nn = 0;
+    int nn = 0, w = 0;
     for (int c = 0; c < o->nc; c++) {
         const double dm[3] = {dk[0] + o->rel[c][0], dk[1] + o->rel[c][1], dk[2] + o->rel[c][2]};
-        const double rm = sp->s[o->cand[c]].r + 1.4143;
-        if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] <= rm * rm) {
+        const double rm = sp->s[o->cand[c]].r + 1.4143, rw = rm + SPHERES_NEAR_MARGIN;
+        const double d2 = dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2];
+        if (d2 <= rm * rm) {
             memcpy(o->dnear[nn], dm, sizeof dm);
             o->near[nn++] = c;
         }
+        w = w || d2 <= rw * rw;
+    }
+    if (within != NULL) {
+        *within = w;
     }
     return nn;
 }
@@ -299,7 +295,7 @@ static double link_delta(const spheres_t *sp, int k, int q, double dq, const oth
     for (int j = 0; j < nn; j++) {
         const int c = o->near[j];
         double t;
-        ray_deltas(o->dnear[j], &q, 1, sp->s[o->cand[c]].r, &t);
+        spheres_rays(o->dnear[j], &q, 1, sp->s[o->cand[c]].r, &t);
         if (t > 0.0 && (delta == 0.0 || t < delta || (t == delta && o->cand[c] < k))) {
             return 0.0; /* another sphere's link */
         }
@@ -312,31 +308,12 @@ static double link_delta(const spheres_t *sp, int k, int q, double dq, const oth
     return delta;
 }
 
-/* How far (cells) the other spheres may move before a refresh checks all
- * the links of a sphere again (sphere_refresh): the cells within this of
- * a ray's reach of another sphere are checked at every refresh. */
-#define SPHERES_NEAR_MARGIN 0.5
-
-/* 1 when a cell at dk from c_k is within SPHERES_NEAR_MARGIN of a ray's
- * reach of another sphere near k (near_candidates: within r_m + sqrt 2). */
-static int near_any(const spheres_t *sp, const double dk[3], const others_t *o)
-{
-    for (int c = 0; c < o->nc; c++) {
-        const double dm[3] = {dk[0] + o->rel[c][0], dk[1] + o->rel[c][1], dk[2] + o->rel[c][2]};
-        const double rm = sp->s[o->cand[c]].r + 1.4143 + SPHERES_NEAR_MARGIN;
-        if (dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2] <= rm * rm) {
-            return 1;
-        }
-    }
-    return 0;
-}
-
 /* A cell whose links start at index first goes in the list's near cells
- * when another sphere is (nearly) within reach: 0 when out of memory. */
-static int note_near(link_list_t *list, size_t first, int nn, const double dk[3], const spheres_t *sp,
-                     const others_t *o)
+ * when another sphere is (nearly) within reach (near_candidates' within):
+ * 0 when out of memory. */
+static int note_near(link_list_t *list, size_t first, int within)
 {
-    if (nn == 0 && !near_any(sp, dk, o)) {
+    if (!within) {
         return 1;
     }
     if (!spheres_grow((void **)&list->near, &list->capnear, list->nnear + 1, sizeof *list->near)) {
@@ -380,7 +357,7 @@ static void note_checked(const spheres_t *sp, link_list_t *list, const others_t 
  * are k's as they were (a link changes hands only to a sphere within
  * reach of its cell), its cell is still fluid and its solid neighbour
  * still inside k (else a flag changed near k, and find_dirty has it built
- * anew), and its wall distance is k's own ray (spheres_link_geometry). */
+ * anew), and its wall distance is k's own ray (spheres_link_delta). */
 static int near_check_holds(const spheres_t *sp, const link_list_t *list, const others_t *o)
 {
     if (!list->checked || list->film_set || o->film || o->nc != list->ncand) {
@@ -415,14 +392,15 @@ static int refresh_cell(spheres_t *sp, const uint8_t *flags, int k, others_t *o,
     if (dd > reach2 || dd <= r2) {
         return 0;
     }
-    const int nn = near_candidates(sp, dk, o);
+    int within = 0;
+    const int nn = near_candidates(sp, dk, o, full ? &within : NULL);
     size_t e = n;
     int qs[LB_Q], nq = 0;
     double dl[LB_Q];
     for (; e < list->n && list->l[e].xf == list->l[n].xf; e++) {
         qs[nq++] = list->l[e].q;
     }
-    ray_deltas(dk, qs, nq, p->r, dl);
+    spheres_rays(dk, qs, nq, p->r, dl);
     int Y[3] = {0, 0, 0};
     for (int jq = 0; jq < nq; jq++) {
         sphere_link_t *l = &list->l[n + (size_t)jq];
@@ -443,7 +421,7 @@ static int refresh_cell(spheres_t *sp, const uint8_t *flags, int k, others_t *o,
             l->film = link_film(sp, k, l->q, dk, delta, o);
         }
     }
-    if (full && !note_near(list, n, nn, dk, sp, o)) {
+    if (full && !note_near(list, n, within)) {
         *checked = 0;
     }
     *end = e;
@@ -457,7 +435,7 @@ static int refresh_cell(spheres_t *sp, const uint8_t *flags, int k, others_t *o,
  * changed hands between spheres, which this sphere or the other sees as a
  * link it no longer wins: 0 then (the list is to be rebuilt), 1 when every
  * link is still k's (their geometry follows from the new centre:
- * spheres_link_geometry). Only the near cells are checked while
+ * spheres_link_delta). Only the near cells are checked while
  * near_check_holds; else all, and the near cells noted anew. */
 static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, others_t *o, link_list_t *list)
 {
@@ -470,13 +448,7 @@ static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, others_t *
                 return 0;
             }
         }
-        if (list->fresh_set) {
-            /* fresh marks belong to the map that uncovered the cells */
-            for (size_t n = 0; n < list->n; n++) {
-                list->l[n].fresh = 0;
-            }
-            list->fresh_set = 0;
-        }
+        spheres_clear_fresh(list);
         list->near_refreshes++;
         return 1;
     }
@@ -581,7 +553,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                 }
                 /* the candidates a ray of length <= sqrt 2 from this cell can
                  * reach (the same for every q), in increasing index */
-                const int nn = solid != 0 ? near_candidates(sp, dk, o) : 0;
+                int within = 0;
+                const int nn = solid != 0 ? near_candidates(sp, dk, o, &within) : 0;
                 /* the rays to k of all the cell's links first (in increasing
                  * q, as the keys want): independent of each other, where one
                  * link at a time waited on each square root and division */
@@ -590,7 +563,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                 for (; solid != 0; solid &= solid - 1) {
                     qs[nq++] = __builtin_ctz(solid);
                 }
-                ray_deltas(dk, qs, nq, p->r, dl);
+                spheres_rays(dk, qs, nq, p->r, dl);
                 const size_t nl_first = nl;
                 int linked = 0;
                 for (int jq = 0; jq < nq; jq++) {
@@ -629,7 +602,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     fresh_set |= l->fresh;
                     linked = 1;
                 }
-                if (linked && !note_near(list, nl_first, nn, dk, sp, o)) {
+                if (linked && !note_near(list, nl_first, within)) {
                     checked = 0;
                 }
             }

@@ -424,11 +424,8 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     }
     if (!moved) {
         /* links marked fresh belong to the last map stage only */
-        for (int k = 0; k < sp->n && sp->nfresh > 0; k++) {
-            for (size_t j = 0; j < sp->lists[k].n; j++) {
-                sp->lists[k].l[j].fresh = 0;
-            }
-            sp->lists[k].fresh_set = 0;
+        for (int k = 0; k < sp->n; k++) {
+            spheres_clear_fresh(&sp->lists[k]);
         }
         sp->nfresh = 0;
         /* the cells of other ranks the links read, this step's values */

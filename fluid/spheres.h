@@ -81,7 +81,7 @@ typedef struct {
  * in_slot(qbar, x_f) (layout.h), the population x_f receives from the solid.
  * 72 bytes. Its geometry is derived where it is used, not kept: delta
  * (Eq. 5) and the wall point from the cell (key), q and the sphere's centre
- * (spheres_link_geometry), and from delta and have the scheme's
+ * (spheres_link_cell, spheres_link_delta, spheres_wall_point), and from delta and have the scheme's
  * coefficients (boundary_coefficients): f_new = sum a_k f~_q(x_f - k c_q) +
  * sum b_k f~_qbar(x_f - k c_q) + moving term + corr n_q^-(x_f),
  * pre-collision (boundary.h). (Kept, they made a record of 168 bytes, then

@@ -85,23 +85,35 @@ static inline void spheres_key_cell(uint64_t key, int X[3])
     X[2] = (int)(key >> 37) - 32768;
 }
 
+/* delta of the rays x + t c_q, t in (0, 1], for q = qs[0..n), against a
+ * sphere of radius r whose centre is at x - d (spheres_ray), side by side:
+ * the links' build and refresh, and the fill. */
+static inline __attribute__((always_inline)) void spheres_rays(const double d[3], const int *qs, int n, double r,
+                                                               double *out)
+{
+    const double c = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - r * r;
+#pragma omp simd
+    for (int j = 0; j < n; j++) {
+        out[j] = spheres_ray(d, c, qs[j]);
+    }
+}
+
 /* A link's wall distance and wall point for its sphere p's centre, derived
  * from the link's cell and q (not kept in it: sphere_link_t). The link is
  * p's (the links' stage checked that no other sphere's ray from its cell
  * hits first), so delta is p's own ray (Eq. 5), or 1 where that ray only
  * touches the surface at t = 1 (its solid cell sits on it): what
  * sphere_links.c link_delta gives it. spheres_link_cell: the cell (key)
- * minus c_p, dk, and *c = |dk|^2 - r^2, the same for all the links of a
- * cell; spheres_link_geometry: delta (spheres_link_delta of the ray), and
- * rw = x_f + delta c_q - c_p (spheres_wall_point). */
-static inline void spheres_link_cell(const sphere_t *p, uint64_t key, double dk[3], double *c)
+ * minus c_p, the same for all the links of a cell; spheres_link_delta: delta
+ * from the ray (spheres_rays); spheres_wall_point: rw = x_f + delta c_q -
+ * c_p. */
+static inline void spheres_link_cell(const sphere_t *p, uint64_t key, double dk[3])
 {
     int X[3];
     spheres_key_cell(key, X);
     for (int a = 0; a < 3; a++) {
         dk[a] = X[a] - p->c[a]; /* the box is about c_p: X - c_p is the minimum image */
     }
-    *c = dk[0] * dk[0] + dk[1] * dk[1] + dk[2] * dk[2] - p->r * p->r;
 }
 
 static inline double spheres_link_delta(double ray) { return ray > 0.0 ? ray : 1.0; }
@@ -113,11 +125,16 @@ static inline void spheres_wall_point(const double dk[3], double delta, int q, d
     }
 }
 
-static inline double spheres_link_geometry(const double dk[3], double c, int q, double rw[3])
+/* Fresh marks belong to the map that uncovered the cells: a list's cleared
+ * by the next map that uncovers none near it. */
+static inline void spheres_clear_fresh(link_list_t *list)
 {
-    const double delta = spheres_link_delta(spheres_ray(dk, c, q));
-    spheres_wall_point(dk, delta, q, rw);
-    return delta;
+    if (list->fresh_set) {
+        for (size_t n = 0; n < list->n; n++) {
+            list->l[n].fresh = 0;
+        }
+        list->fresh_set = 0;
+    }
 }
 
 /* The sphere whose surface is nearest to point x (global coordinates), and x

@@ -41,9 +41,11 @@
 /* A link's delta for its sphere's centre now, as the fill derives it. */
 static double link_delta_now(const spheres_t *sp, const sphere_link_t *l)
 {
-    double dk[3], c, rw[3];
-    spheres_link_cell(&sp->s[l->sphere], l->key, dk, &c);
-    return spheres_link_geometry(dk, c, l->q, rw);
+    double dk[3], ray;
+    const int q = l->q;
+    spheres_link_cell(&sp->s[l->sphere], l->key, dk);
+    spheres_rays(dk, &q, 1, sp->s[l->sphere].r, &ray);
+    return spheres_link_delta(ray);
 }
 
 static double brute_delta(const double x[3], int q, const scene_t *s, const grid_t *g)
