@@ -21,6 +21,7 @@
 #include "h5fields.h"
 
 #include <hdf5.h>
+#include <math.h>
 #include <mpi.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -40,7 +41,19 @@ struct h5fields {
     long *steps;      /* sorted, unique; the same on every process */
     double *times;
     int nsnaps, cap;
+    int max_nz;       /* the most planes of any process's block */
+    /* the snapshot being written (h5fields_begin .. h5fields_end): its
+     * group and datasets (-1: none), step, time and status so far */
+    hid_t snap, dset[3];
+    long snap_step;
+    double snap_time;
+    status_t snap_st;
+    char snap_name[64];
 };
+
+/* The datasets of a snapshot: name, HDF5 type, values per cell. */
+static const char *const FIELD_NAMES[3] = {"density", "velocity", "flags"};
+static const int FIELD_COMPS[3] = {1, 3, 1};
 
 static status_t open_file(const char *path, const int n[3], double dx, const h5fields_part_t *part, int resume,
                           const log_t *log, h5fields_t **out);
@@ -87,12 +100,27 @@ static void close_plist(hid_t p)
     }
 }
 
+static void close_snapshot(h5fields_t *w)
+{
+    for (int k = 0; k < 3; k++) {
+        if (w->dset[k] >= 0) {
+            H5Dclose(w->dset[k]);
+        }
+        w->dset[k] = -1;
+    }
+    if (w->snap >= 0) {
+        H5Gclose(w->snap);
+    }
+    w->snap = -1;
+}
+
 status_t h5fields_close(h5fields_t *w)
 {
     if (w == NULL) {
         return STATUS_OK;
     }
     status_t st = STATUS_OK;
+    close_snapshot(w); /* a snapshot left unfinished (an error on the way) */
     if (w->file >= 0 && H5Fclose(w->file) < 0) {
         st = fail(w, "the file (closing)");
     }
@@ -159,8 +187,9 @@ static status_t check_block(const h5fields_t *w)
     return STATUS_OK;
 }
 
-/* The blocks tile the grid: at least their cells add up to it (collective). */
-static status_t check_tiling(const h5fields_t *w)
+/* The blocks tile the grid: at least their cells add up to it; and the
+ * most planes of any block (collective). */
+static status_t check_tiling(h5fields_t *w)
 {
     const int64_t grid = (int64_t)w->n[0] * w->n[1] * w->n[2];
     int64_t mine = (int64_t)w->nb[0] * w->nb[1] * w->nb[2], all = 0;
@@ -173,6 +202,11 @@ static status_t check_tiling(const h5fields_t *w)
                        "%s: the blocks of the processes have %lld cells together, the grid of %d x %d x %d has %lld "
                        "(the blocks must tile the grid)",
                        w->path, (long long)all, w->n[0], w->n[1], w->n[2], (long long)grid);
+    }
+    /* every process makes as many h5fields_planes calls as the tallest block needs */
+    if (MPI_Allreduce(&w->nb[2], &w->max_nz, 1, MPI_INT, MPI_MAX, w->comm) != MPI_SUCCESS) {
+        return log_msg(&w->log, STATUS_FATAL, "fields", "%s: MPI error (MPI_Allreduce) of the blocks' planes",
+                       w->path);
     }
     return STATUS_OK;
 }
@@ -216,6 +250,7 @@ static status_t set_up(h5fields_t *w, const char *path, const int n[3], double d
         w->lo[a] = part != NULL ? part->lo[a] : 0;
         w->nb[a] = part != NULL ? part->n[a] : n[a];
     }
+    w->max_nz = w->nb[2]; /* several processes: the largest of theirs (check_tiling) */
     w->dx = dx;
     status_t st = check_block(w);
     if (w->comm != MPI_COMM_NULL) {
@@ -250,7 +285,8 @@ static status_t open_file(const char *path, const int n[3], double dx, const h5f
         }
         return st;
     }
-    w->file = -1;
+    w->file = w->snap = -1;
+    w->dset[0] = w->dset[1] = w->dset[2] = -1;
     w->dxpl = w->dcpl = H5P_DEFAULT;
     w->comm = comm;
     if (log != NULL) {
@@ -280,18 +316,21 @@ static status_t open_file(const char *path, const int n[3], double dx, const h5f
     return STATUS_OK;
 }
 
-/* This process's block as a hyperslab of the file's dataspace, and the
- * dataspace of its buffer (nb cells, x fastest, comps values per cell). */
-static status_t select_block(const h5fields_t *w, hid_t fspace, int comps, hid_t *mspace)
+/* Planes z0 .. z0 + nz - 1 of this process's block (local z) as a
+ * hyperslab of the file's dataspace, and the dataspace of their buffer
+ * (nb[0] nb[1] nz cells, x fastest, comps values per cell). */
+static status_t select_planes(const h5fields_t *w, hid_t fspace, int comps, int z0, int nz, hid_t *mspace)
 {
-    const hsize_t start[4] = {(hsize_t)w->lo[2], (hsize_t)w->lo[1], (hsize_t)w->lo[0], 0};
-    const hsize_t count[4] = {(hsize_t)w->nb[2], (hsize_t)w->nb[1], (hsize_t)w->nb[0], (hsize_t)comps};
-    const int empty = w->nb[0] == 0 || w->nb[1] == 0 || w->nb[2] == 0;
-    *mspace = H5Screate_simple(comps > 1 ? 4 : 3, count, NULL);
+    const hsize_t start[4] = {(hsize_t)(w->lo[2] + z0), (hsize_t)w->lo[1], (hsize_t)w->lo[0], 0};
+    const hsize_t count[4] = {(hsize_t)nz, (hsize_t)w->nb[1], (hsize_t)w->nb[0], (hsize_t)comps};
+    const int empty = w->nb[0] == 0 || w->nb[1] == 0 || nz == 0;
+    const hsize_t one[4] = {1, 1, 1, 1};
+    *mspace = H5Screate_simple(comps > 1 ? 4 : 3, empty ? one : count, NULL);
     if (*mspace < 0) {
         return STATUS_ERROR;
     }
-    /* an empty block still takes part in the collective write, with nothing */
+    /* nothing to write here (an empty block, or no planes left in it): the
+     * process still takes part in the collective write, with nothing */
     if (empty) {
         return H5Sselect_none(fspace) < 0 || H5Sselect_none(*mspace) < 0 ? STATUS_ERROR : STATUS_OK;
     }
@@ -303,40 +342,46 @@ static status_t select_block(const h5fields_t *w, hid_t fspace, int comps, hid_t
     return STATUS_OK;
 }
 
-static status_t write_one(h5fields_t *w, hid_t group, const char *group_name, const char *name, hid_t type,
-                          const void *data, int comps)
+/* Dataset k of the open snapshot, with the dimensions of the whole grid. */
+static status_t create_one(h5fields_t *w, int k)
 {
     char what[96];
-    snprintf(what, sizeof what, "%s/%s", group_name, name);
-    hsize_t dims[4] = {(hsize_t)w->n[2], (hsize_t)w->n[1], (hsize_t)w->n[0], (hsize_t)comps};
-    hid_t space = H5Screate_simple(comps > 1 ? 4 : 3, dims, NULL), mspace = H5S_ALL, fspace = H5S_ALL;
-    status_t st = STATUS_OK;
-    if (space < 0) {
-        st = fail(w, what);
-    } else if (w->comm != MPI_COMM_NULL) {
-        fspace = space;
-        if (select_block(w, fspace, comps, &mspace) != STATUS_OK) {
-            st = fail(w, what);
-        }
-    }
-    st = agree(w, st, what);
-    hid_t d = -1;
+    snprintf(what, sizeof what, "%s/%s", w->snap_name, FIELD_NAMES[k]);
+    const int comps = FIELD_COMPS[k];
+    const hsize_t dims[4] = {(hsize_t)w->n[2], (hsize_t)w->n[1], (hsize_t)w->n[0], (hsize_t)comps};
+    const hid_t type = k == 2 ? H5T_NATIVE_UCHAR : H5T_NATIVE_DOUBLE;
+    hid_t space = H5Screate_simple(comps > 1 ? 4 : 3, dims, NULL);
+    status_t st = agree(w, space < 0 ? fail(w, what) : STATUS_OK, what);
     if (st == STATUS_OK) {
-        d = H5Dcreate2(group, name, type, space, H5P_DEFAULT, w->dcpl, H5P_DEFAULT);
-        st = agree(w, d < 0 ? fail(w, what) : STATUS_OK, what);
-    }
-    if (st == STATUS_OK && H5Dwrite(d, type, mspace, fspace, w->dxpl, data) < 0) {
-        st = fail(w, what);
-    }
-    if (d >= 0 && H5Dclose(d) < 0) {
-        st = fail(w, what);
-    }
-    st = agree(w, st, what);
-    if (mspace >= 0 && mspace != H5S_ALL) {
-        H5Sclose(mspace);
+        w->dset[k] = H5Dcreate2(w->snap, FIELD_NAMES[k], type, space, H5P_DEFAULT, w->dcpl, H5P_DEFAULT);
+        st = agree(w, w->dset[k] < 0 ? fail(w, what) : STATUS_OK, what);
     }
     if (space >= 0) {
         H5Sclose(space);
+    }
+    return st;
+}
+
+/* Planes z0 .. z0 + nz - 1 of this process's block into dataset k. */
+static status_t write_planes_one(h5fields_t *w, int k, int z0, int nz, const void *data)
+{
+    char what[96];
+    snprintf(what, sizeof what, "%s/%s", w->snap_name, FIELD_NAMES[k]);
+    const hid_t type = k == 2 ? H5T_NATIVE_UCHAR : H5T_NATIVE_DOUBLE;
+    hid_t fspace = H5Dget_space(w->dset[k]), mspace = -1;
+    status_t st = fspace < 0 || select_planes(w, fspace, FIELD_COMPS[k], z0, nz, &mspace) != STATUS_OK
+                      ? fail(w, what)
+                      : STATUS_OK;
+    st = agree(w, st, what);
+    if (st == STATUS_OK && H5Dwrite(w->dset[k], type, mspace, fspace, w->dxpl, data) < 0) {
+        st = fail(w, what);
+    }
+    st = agree(w, st, what);
+    if (mspace >= 0) {
+        H5Sclose(mspace);
+    }
+    if (fspace >= 0) {
+        H5Sclose(fspace);
     }
     return st;
 }
@@ -452,11 +497,27 @@ static status_t remember(h5fields_t *w, long step, double time)
     return STATUS_OK;
 }
 
-status_t h5fields_write(h5fields_t *w, long step, double time, const double *density, const double *velocity,
-                        const unsigned char *flags)
+int h5fields_slab_planes(int nx, int ny, int nz)
 {
-    char name[64];
-    snprintf(name, sizeof name, "/fields/%06ld", step);
+    const double plane = (double)nx * (double)ny;
+    const double fit = plane > 0.0 ? floor((double)H5FIELDS_SLAB_CELLS / plane) : (double)nz;
+    const int planes = fit < 1.0 ? 1 : fit > (double)nz ? nz : (int)fit;
+    return planes > 0 ? planes : 1;
+}
+
+int h5fields_slabs(const h5fields_t *w, int planes)
+{
+    planes = planes > 0 ? planes : 1;
+    return (w->max_nz + planes - 1) / planes;
+}
+
+status_t h5fields_begin(h5fields_t *w, long step, double time)
+{
+    close_snapshot(w);
+    snprintf(w->snap_name, sizeof w->snap_name, "/fields/%06ld", step);
+    const char *name = w->snap_name;
+    w->snap_step = step;
+    w->snap_time = time;
     status_t st = STATUS_OK;
     if (H5Lexists(w->file, "/fields", H5P_DEFAULT) > 0 && H5Lexists(w->file, name, H5P_DEFAULT) > 0 &&
         H5Ldelete(w->file, name, H5P_DEFAULT) < 0) {
@@ -466,36 +527,86 @@ status_t h5fields_write(h5fields_t *w, long step, double time, const double *den
     if (st == STATUS_OK && (lcpl < 0 || H5Pset_create_intermediate_group(lcpl, 1) < 0)) {
         st = fail(w, name);
     }
-    if ((st = agree(w, st, name)) != STATUS_OK) {
-        if (lcpl >= 0) {
-            H5Pclose(lcpl);
+    if ((st = agree(w, st, name)) == STATUS_OK) {
+        w->snap = H5Gcreate2(w->file, name, lcpl, H5P_DEFAULT, H5P_DEFAULT);
+        st = agree(w, w->snap < 0 ? fail(w, name) : STATUS_OK, name);
+    }
+    if (lcpl >= 0) {
+        H5Pclose(lcpl);
+    }
+    for (int k = 0; k < 3 && st == STATUS_OK; k++) {
+        st = create_one(w, k);
+    }
+    if (st != STATUS_OK) {
+        close_snapshot(w);
+    }
+    w->snap_st = st;
+    return st;
+}
+
+status_t h5fields_planes(h5fields_t *w, int z0, int nz, const double *density, const double *velocity,
+                         const unsigned char *flags)
+{
+    if (w->snap < 0) {
+        return log_msg(&w->log, STATUS_ERROR, "fields", "%s: planes written outside a snapshot (h5fields_begin)",
+                       w->path);
+    }
+    if (w->snap_st != STATUS_OK) {
+        return w->snap_st; /* every process knows it (agreed): none writes on */
+    }
+    status_t st = STATUS_OK;
+    if (z0 < 0 || nz < 0 || (nz > 0 && z0 + nz > w->nb[2])) {
+        st = log_msg(&w->log, STATUS_ERROR, "fields", "%s: planes %d..%d are not in this process's block of %d planes",
+                     w->path, z0, z0 + nz - 1, w->nb[2]);
+    }
+    st = agree(w, st, w->snap_name);
+    const void *data[3] = {density, velocity, flags};
+    for (int k = 0; k < 3 && st == STATUS_OK; k++) {
+        st = write_planes_one(w, k, z0, nz, data[k]);
+    }
+    w->snap_st = st;
+    return st;
+}
+
+status_t h5fields_end(h5fields_t *w)
+{
+    if (w->snap < 0) {
+        return log_msg(&w->log, STATUS_ERROR, "fields", "%s: no snapshot to finish (h5fields_begin)", w->path);
+    }
+    status_t st = w->snap_st;
+    if (st == STATUS_OK) {
+        st = write_time(w, w->snap, w->snap_name, w->snap_time);
+    }
+    /* on every process, whatever the other did: closing is collective */
+    for (int k = 0; k < 3; k++) {
+        if (w->dset[k] >= 0 && H5Dclose(w->dset[k]) < 0) {
+            st = status_worst(st, fail(w, w->snap_name));
         }
-        return st;
+        w->dset[k] = -1;
     }
-    hid_t g = H5Gcreate2(w->file, name, lcpl, H5P_DEFAULT, H5P_DEFAULT);
-    H5Pclose(lcpl);
-    if ((st = agree(w, g < 0 ? fail(w, name) : STATUS_OK, name)) != STATUS_OK) {
-        if (g >= 0) {
-            H5Gclose(g);
-        }
-        return st;
+    if (H5Gclose(w->snap) < 0) {
+        st = status_worst(st, fail(w, w->snap_name));
     }
-    st = write_one(w, g, name, "density", H5T_NATIVE_DOUBLE, density, 1);
-    st = status_worst(st, write_one(w, g, name, "velocity", H5T_NATIVE_DOUBLE, velocity, 3));
-    st = status_worst(st, write_one(w, g, name, "flags", H5T_NATIVE_UCHAR, flags, 1));
-    st = status_worst(st, write_time(w, g, name, time));
-    /* both on every process, whatever the other did: both are collective */
-    if (H5Gclose(g) < 0) {
-        st = status_worst(st, fail(w, name));
-    }
+    w->snap = -1;
     if (H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0) {
-        st = status_worst(st, fail(w, name));
+        st = status_worst(st, fail(w, w->snap_name));
     }
-    if ((st = agree(w, st, name)) != STATUS_OK) {
+    if ((st = agree(w, st, w->snap_name)) != STATUS_OK) {
         return st;
     }
-    st = agree(w, remember(w, step, time), "the list of snapshots");
+    st = agree(w, remember(w, w->snap_step, w->snap_time), "the list of snapshots");
     return st != STATUS_OK ? st : write_xmf_once(w);
+}
+
+status_t h5fields_write(h5fields_t *w, long step, double time, const double *density, const double *velocity,
+                        const unsigned char *flags)
+{
+    status_t st = h5fields_begin(w, step, time);
+    if (st != STATUS_OK) {
+        return st;
+    }
+    h5fields_planes(w, 0, w->nb[2], density, velocity, flags);
+    return h5fields_end(w);
 }
 
 /* Every snapshot group already in the file, into the sorted list. */

@@ -48,6 +48,30 @@ status_t h5fields_drop_after(h5fields_t *w, long step);
  * cells (the whole grid without a part), x fastest. */
 status_t h5fields_write(h5fields_t *w, long step, double time, const double *density, const double *velocity,
                         const unsigned char *flags);
+
+/* The same snapshot a few z planes at a time, so that the writer's buffers
+ * hold those planes only, not the grid (the fluid FMU: fluid_fmi.c):
+ * h5fields_begin creates the snapshot's group and datasets; each
+ * h5fields_planes writes planes z0 .. z0 + nz - 1 of this process's block
+ * (local z; the arrays as for h5fields_write, for n[0] n[1] nz cells);
+ * h5fields_end adds the time, closes the snapshot and rewrites the index.
+ * With several processes each h5fields_planes is collective: every process
+ * makes h5fields_slabs(w, planes) calls, those past the end of its block
+ * with nz 0. After a failed call the next ones return its status, and
+ * h5fields_end still closes the snapshot. */
+status_t h5fields_begin(h5fields_t *w, long step, double time);
+status_t h5fields_planes(h5fields_t *w, int z0, int nz, const double *density, const double *velocity,
+                         const unsigned char *flags);
+status_t h5fields_end(h5fields_t *w);
+/* Calls of `planes` planes each that cover the tallest block of the processes. */
+int h5fields_slabs(const h5fields_t *w, int planes);
+
+/* Cells of the buffers a writer of planes holds at most (33 bytes each: 8.7
+ * MB), unless one plane alone has more; h5fields_slab_planes: planes of nx
+ * x ny cells per slab for a block of nz planes (at least 1, at most nz).
+ * No HDF5 call: the run's resource check uses it too. */
+#define H5FIELDS_SLAB_CELLS 262144
+int h5fields_slab_planes(int nx, int ny, int nz);
 /* Closes the file and frees w (NULL is fine). */
 status_t h5fields_close(h5fields_t *w);
 

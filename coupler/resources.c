@@ -4,6 +4,8 @@
  * the rigid component and the master are small beside them. */
 #include "resources.h"
 
+#include "../common/h5fields.h"
+
 #include "../fluid/grid.h"
 #include "../fluid/lattice.h"
 #include "../fluid/units.h"
@@ -15,8 +17,9 @@
 
 #define CAT "resources"
 
-/* density (8), velocity (24) and flag (1) of an interior cell: the fluid
- * FMU's field buffers and one snapshot's datasets */
+/* density (8), velocity (24) and flag (1) of an interior cell: one
+ * snapshot's datasets, and the fluid FMU's field buffers for the cells of a
+ * slab of planes (h5fields_slab_planes) */
 #define FIELD_BYTES_PER_CELL 33.0
 
 status_t resources_need(const scene_t *s, double t_end, int checkpoints, const log_t *log, resources_need_t *need)
@@ -32,7 +35,8 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
     need->grid_cells = (double)g.ncells;
     need->cell_bytes = units_bytes_per_cell(s);
     const double grid = need->grid_cells * need->cell_bytes;
-    need->memory = grid + (s->run.fields ? interior * FIELD_BYTES_PER_CELL : 0.0); /* buffers only with fields */
+    const double slab = (double)u.n[0] * u.n[1] * h5fields_slab_planes(u.n[0], u.n[1], u.n[2]);
+    need->memory = grid + (s->run.fields ? slab * FIELD_BYTES_PER_CELL : 0.0); /* buffers only with fields */
     /* a row: time, fluid mass, momentum, energy; per sphere 5 vectors and a
      * body id; per connection 2 vectors and a flag; bodies: count, 2 vectors */
     const double ns = scene_total_spheres(s), nc = s->nconnections;

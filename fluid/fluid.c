@@ -446,15 +446,21 @@ size_t fluid_memory_bytes(const fluid_t *fl)
 
 void fluid_moments_lattice(fluid_t *fl, double *rho, double *u)
 {
+    fluid_moments_lattice_planes(fl, 0, fl->g.n[2], rho, u);
+}
+
+void fluid_moments_lattice_planes(fluid_t *fl, int z0, int nz, double *rho, double *u)
+{
     const grid_t *g = &fl->g;
     const pops_t pf = fluid_pops(fl), *f = &pf;
-    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
-#pragma omp parallel for schedule(static)
+    const int nx = g->n[0], ny = g->n[1];
+    /* over rows, not planes: a slab may be a plane or two */
+#pragma omp parallel for collapse(2) schedule(static)
     for (int z = 0; z < nz; z++) {
         for (int y = 0; y < ny; y++) {
             for (int x = 0; x < nx; x++) {
                 const size_t o = (size_t)x + (size_t)nx * ((size_t)y + (size_t)ny * (size_t)z);
-                const size_t i = grid_index(g, x + 1, y + 1, z + 1);
+                const size_t i = grid_index(g, x + 1, y + 1, z0 + z + 1);
                 double r = 0.0, v[3] = {0.0, 0.0, 0.0};
                 if (fl->flags[i] == CELL_FLUID) {
                     fluid_local_moments(fl, f, i, &r, v);
@@ -495,13 +501,18 @@ void fluid_set_equilibrium_lattice(fluid_t *fl, const double *rho, const double 
 
 void fluid_flags(const fluid_t *fl, unsigned char *flags)
 {
+    fluid_flags_planes(fl, 0, fl->g.n[2], flags);
+}
+
+void fluid_flags_planes(const fluid_t *fl, int z0, int nz, unsigned char *flags)
+{
     const grid_t *g = &fl->g;
-    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+    const int nx = g->n[0], ny = g->n[1];
     for (int z = 0; z < nz; z++) {
         for (int y = 0; y < ny; y++) {
             for (int x = 0; x < nx; x++) {
                 flags[(size_t)x + (size_t)nx * ((size_t)y + (size_t)ny * (size_t)z)] =
-                    fl->flags[grid_index(g, x + 1, y + 1, z + 1)];
+                    fl->flags[grid_index(g, x + 1, y + 1, z0 + z + 1)];
             }
         }
     }

@@ -45,11 +45,15 @@ size_t fluid_memory_bytes(const fluid_t *fl);
  * the values the last collision used (with Guo's half-force shift). Solid
  * cells read 0. */
 void fluid_moments_lattice(fluid_t *fl, double *rho, double *u);
+/* The same for the interior planes z0 .. z0 + nz - 1 only (0-based), into
+ * arrays of nx ny nz cells (i = x + nx*(y + ny*(z - z0))). */
+void fluid_moments_lattice_planes(fluid_t *fl, int z0, int nz, double *rho, double *u);
 /* Sets every interior cell to the equilibrium of the given fields (same
  * layout), e.g. an initial condition; NULL u means at rest. */
 void fluid_set_equilibrium_lattice(fluid_t *fl, const double *rho, const double *u);
 /* Cell type of every interior cell (0 fluid, 1 solid), same layout. */
 void fluid_flags(const fluid_t *fl, unsigned char *flags);
+void fluid_flags_planes(const fluid_t *fl, int z0, int nz, unsigned char *flags);
 
 /* Total mass and momentum of the interior (lattice units), for diagnostics. */
 void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3]);

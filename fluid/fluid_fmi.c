@@ -90,8 +90,9 @@ typedef struct {
     int ns;
     double *kin;            /* per sphere: c[3], v[3], w[3] */
     unsigned char *is_free; /* per sphere: set from inputs */
-    size_t ncells;
-    double *rho, *u;        /* SI moments of every interior cell, for diagnostics and fields */
+    int block[3];           /* this rank's interior cells (the whole grid on one rank) */
+    int slab;               /* z planes per field slab (h5fields_slab_planes) */
+    double *rho, *u;        /* SI moments of a slab of planes, for the field snapshots */
     unsigned char *flags;
     h5fields_t *fields;     /* NULL: no snapshots */
     long next_field;        /* snapshots at next_field * run.field_interval */
@@ -321,10 +322,10 @@ static status_t fluid_fmi_create(const scene_t *s, double t0, const log_t *log, 
         return st;
     }
     /* the fields of this rank's block (the whole grid on one rank) */
-    int lo[3], n[3];
+    int lo[3];
     const void *comm;
-    fluid_block(m->fl, lo, n, &comm);
-    m->ncells = (size_t)n[0] * n[1] * n[2];
+    fluid_block(m->fl, lo, m->block, &comm);
+    m->slab = h5fields_slab_planes(m->block[0], m->block[1], m->block[2]);
     m->scene = s;
     m->log = *log;
     m->end_step = (long)ceil(s->run.end_time / fluid_units(m->fl)->dt - 1e-9);
@@ -332,14 +333,15 @@ static status_t fluid_fmi_create(const scene_t *s, double t0, const log_t *log, 
     return st;
 }
 
-/* Moments and flags of every interior cell in SI units. */
-static void load_fields(fluid_fmi_t *m)
+/* Moments and flags of the interior planes z0 .. z0 + nz - 1 in SI units. */
+static void load_fields(fluid_fmi_t *m, int z0, int nz)
 {
     const units_t *un = fluid_units(m->fl);
     const double uv = units_velocity(un);
-    fluid_moments_lattice(m->fl, m->rho, m->u);
-    fluid_flags(m->fl, m->flags);
-    for (size_t i = 0; i < m->ncells; i++) {
+    fluid_moments_lattice_planes(m->fl, z0, nz, m->rho, m->u);
+    fluid_flags_planes(m->fl, z0, nz, m->flags);
+    const size_t cells = (size_t)m->block[0] * (size_t)m->block[1] * (size_t)nz;
+    for (size_t i = 0; i < cells; i++) {
         m->rho[i] *= un->rho0;
         for (int a = 0; a < 3; a++) {
             m->u[3 * i + a] *= uv;
@@ -366,8 +368,19 @@ static status_t maybe_snapshot(fluid_fmi_t *m)
     if (st >= STATUS_ERROR) {
         return st;
     }
-    load_fields(m);
-    st = h5fields_write(m->fields, step, t, m->rho, m->u, m->flags);
+    /* a slab of planes at a time: the buffers hold a slab, not the grid (on
+     * several ranks each makes as many calls as the tallest block needs) */
+    st = h5fields_begin(m->fields, step, t);
+    if (st == STATUS_OK) {
+        const int calls = h5fields_slabs(m->fields, m->slab);
+        for (int c = 0; c < calls && st == STATUS_OK; c++) {
+            const int z0 = c * m->slab, left = m->block[2] - z0;
+            const int nz = left <= 0 ? 0 : left < m->slab ? left : m->slab;
+            load_fields(m, nz > 0 ? z0 : 0, nz);
+            st = h5fields_planes(m->fields, nz > 0 ? z0 : 0, nz, m->rho, m->u, m->flags);
+        }
+        st = status_worst(st, h5fields_end(m->fields));
+    }
     while (m->next_field * fi <= t + 1e-9 * dt) {
         m->next_field++;
     }
@@ -382,11 +395,12 @@ static status_t fluid_fmi_set_string(void *comp, const fmi_var_t *var, const cha
     }
     h5fields_close(m->fields);
     m->fields = NULL;
-    /* the field buffers exist only where fields are written */
+    /* the field buffers exist only where fields are written: a slab's */
+    const size_t cells = (size_t)m->block[0] * (size_t)m->block[1] * (size_t)m->slab;
     if (m->rho == NULL) {
-        m->rho = malloc(sizeof(double) * m->ncells);
-        m->u = malloc(sizeof(double) * 3 * m->ncells);
-        m->flags = malloc(m->ncells);
+        m->rho = malloc(sizeof(double) * cells);
+        m->u = malloc(sizeof(double) * 3 * cells);
+        m->flags = malloc(cells);
         if (m->rho == NULL || m->u == NULL || m->flags == NULL) {
             free(m->rho);
             free(m->u);
@@ -394,7 +408,7 @@ static status_t fluid_fmi_set_string(void *comp, const fmi_var_t *var, const cha
             m->rho = m->u = NULL;
             m->flags = NULL;
             return log_msg(log, STATUS_ERROR, "fluid", "out of memory for the field buffers of %zu cells (%.4g MB)",
-                           m->ncells, 33.0 * (double)m->ncells / 1e6);
+                           cells, 33.0 * (double)cells / 1e6);
         }
     }
     int n[3];

@@ -10,10 +10,16 @@
  * n/p cells, the first n%p of them one cell larger, and rank r writes block
  * (r % px, r / px % py, r / (px py)). The sequence: open, steps 0 and 5
  * (times 0 and 0.5), close; resume, drop the steps after 0, step 5 again
- * with other values (version 1), close. MODE:
+ * with other values (version 1), close. Step 0 goes in one h5fields_write,
+ * step 5 in slabs of 2 planes and step 5 again in slabs of 3
+ * (h5fields_begin, h5fields_planes, h5fields_end: uneven blocks make calls
+ * with no planes left on some processes). MODE:
  *   bad-block    first an open where the last process's block lies outside
- *                the grid: every process must get STATUS_ERROR (then the
- *                sequence as above);
+ *                the grid: every process must get STATUS_ERROR; after the
+ *                good open, a step 0 whose last process asks for planes past
+ *                its block: every h5fields_planes and h5fields_end must
+ *                return STATUS_ERROR (then the sequence as above, whose step
+ *                0 replaces that one);
  *   write-error  the caller made OUT.xmf a directory: the first snapshot
  *                must fail on every process (rank 0 alone writes the index),
  *                then the writer is closed.
@@ -90,6 +96,22 @@ static int check(const run_t *r, status_t st, status_t want, const char *what)
     return !any;
 }
 
+/* Snapshot `step` of field `version` in slabs of `planes` planes, each
+ * filled for its planes only, as the fluid FMU writes them. */
+static int write_slabs(const run_t *r, h5fields_t *w, long step, double time, const int lo[3], const int nb[3],
+                       int version, int planes, double *rho, double *u, unsigned char *flags)
+{
+    int ok = check(r, h5fields_begin(w, step, time), STATUS_OK, "begin a snapshot");
+    const int calls = h5fields_slabs(w, planes);
+    for (int c = 0; c < calls && ok; c++) {
+        const int z0 = c * planes, left = nb[2] - z0, nz = left <= 0 ? 0 : left < planes ? left : planes;
+        const int slo[3] = {lo[0], lo[1], lo[2] + z0}, snb[3] = {nb[0], nb[1], nz};
+        fill(slo, snb, version, rho, u, flags);
+        ok = check(r, h5fields_planes(w, nz > 0 ? z0 : 0, nz, rho, u, flags), STATUS_OK, "a slab of planes");
+    }
+    return check(r, h5fields_end(w), ok ? STATUS_OK : STATUS_ERROR, "end a snapshot") && ok;
+}
+
 static int sequence(const run_t *r, const char *out, const h5fields_part_t *part, const char *mode)
 {
     const int *lo = part != NULL ? part->lo : (const int[3]){0, 0, 0}, *nb = part != NULL ? part->n : GRID;
@@ -111,22 +133,31 @@ static int sequence(const run_t *r, const char *out, const h5fields_part_t *part
              w == NULL;
     }
     if (ok) {
-        fill(lo, nb, 0, rho, u, flags);
         ok = check(r, h5fields_open(out, GRID, DX, part, &r->log, &w), STATUS_OK, "open");
+    }
+    if (ok && strcmp(mode, "bad-block") == 0) {
+        /* planes past the last process's block: an error on every process */
+        const int z0 = r->rank == r->size - 1 ? nb[2] : 0;
+        ok = check(r, h5fields_begin(w, 0, 0.0), STATUS_OK, "begin step 0") &&
+             check(r, h5fields_planes(w, z0, 1, rho, u, flags), STATUS_ERROR, "planes past the block") &&
+             check(r, h5fields_planes(w, 0, 1, rho, u, flags), STATUS_ERROR, "planes after a failed call") &&
+             check(r, h5fields_end(w), STATUS_ERROR, "end after a failed call");
+    }
+    if (ok) {
+        fill(lo, nb, 0, rho, u, flags);
     }
     if (ok && strcmp(mode, "write-error") == 0) {
         ok = check(r, h5fields_write(w, 0, 0.0, rho, u, flags), STATUS_ERROR, "step 0 with the index a directory") &&
              check(r, h5fields_close(w), STATUS_OK, "close");
     } else if (ok) {
         ok = check(r, h5fields_write(w, 0, 0.0, rho, u, flags), STATUS_OK, "step 0") &&
-             check(r, h5fields_write(w, 5, 0.5, rho, u, flags), STATUS_OK, "step 5") &&
+             write_slabs(r, w, 5, 0.5, lo, nb, 0, 2, rho, u, flags) &&
              check(r, h5fields_close(w), STATUS_OK, "close");
         w = NULL;
         ok = ok && check(r, h5fields_resume(out, GRID, DX, part, &r->log, &w), STATUS_OK, "resume") &&
              check(r, h5fields_drop_after(w, 0), STATUS_OK, "drop after step 0");
         if (ok) {
-            fill(lo, nb, 1, rho, u, flags);
-            ok = check(r, h5fields_write(w, 5, 0.5, rho, u, flags), STATUS_OK, "step 5 again") &&
+            ok = write_slabs(r, w, 5, 0.5, lo, nb, 1, 3, rho, u, flags) &&
                  check(r, h5fields_close(w), STATUS_OK, "close after resume");
         }
     }

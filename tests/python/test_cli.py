@@ -3,6 +3,7 @@
 Bad input must end with a message that names the file, the key and the
 allowed range, a non-zero exit, and nothing written (DESIGN section 3, 4)."""
 import math
+import re
 import xml.etree.ElementTree as ET
 
 import h5py
@@ -91,6 +92,32 @@ def test_fields_and_xdmf(coupler, tmp_path):
         assert v.shape == (20, 20, 20, 3)
         # the lid drives +x flow in the top layer, return flow below
         assert v[-1, :, :, 0].mean() > 0 and v[5, :, :, 0].mean() < 0
+
+
+def test_fields_written_in_slabs_hold_every_plane(coupler, tmp_path):
+    # 96 x 96 x 40 cells: the fluid FMU writes a snapshot 28 planes at a time
+    # (H5FIELDS_SLAB_CELLS = 262144 cells of 33 bytes in its buffers, common/h5fields.h),
+    # so in two slabs; the plane channel starts in its exact steady profile, which
+    # differs from plane to plane: a slab out of place or left out shows
+    size = ["--set", "domain.size=[2.4e-3,2.4e-3,1.0e-3]", "--set", "fluid.initial_profile=plane_channel",
+            "--set", "run.fields=true", "--set", "run.field_interval=6.25e-5"]
+    p = run("check", MODELS / "channel_poiseuille.yaml", *size)
+    assert p.returncode == 0, p.stderr
+    grid = float(re.search(r"memory +([0-9.]+) MB", p.stdout).group(1))
+    need = float(re.search(r"run needs +([0-9.]+) MB of memory", p.stdout).group(1))
+    assert need - grid == pytest.approx(28 * 96 * 96 * 33 / 1e6, abs=0.02)  # a slab, not the grid's 12.2 MB
+    out = tmp_path / "slabs.h5"
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", out, "--quiet", "--steps", "1", *size)
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f:
+        u = f["/fields/000000/velocity"][()]  # [z, y, x, 3]
+        rho = f["/fields/000000/density"][()]
+        flags = f["/fields/000000/flags"][()]
+    z = (np.arange(40) + 0.5) * 2.5e-5
+    want = 8.0 / (2 * 1e-3) * z * (1e-3 - z)  # F z (h - z) / (2 mu), 1 mm/s at the centre
+    assert np.max(np.abs(u[..., 0] - want[:, None, None])) < 1e-12
+    assert np.max(np.abs(u[..., 1:])) < 1e-12
+    assert np.max(np.abs(rho - 1000.0)) < 1e-9 and not flags.any()
 
 
 def test_inlet_outlet_pressure_drop(coupler, tmp_path):

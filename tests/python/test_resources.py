@@ -32,12 +32,12 @@ def test_check_reports_needs_and_warns_when_memory_is_short(coupler):
     m = re.search(r"needs ([0-9.e+]+) MB of memory .*this machine has ([0-9.e+]+) MB available", p.stderr)
     assert m, p.stderr
     need, have = float(m.group(1)), float(m.group(2))
-    # 2.16e17 cells x 153 bytes (one in-place D3Q19 array of doubles and a flag) plus 33 bytes of
-    # field buffers; with two arrays 305 bytes
-    assert abs(need / (2.16e17 * 186 / 1e6) - 1) < 0.01
+    # 2.16e17 cells x 153 bytes (one in-place D3Q19 array of doubles and a flag); the field
+    # buffers hold one plane of 3.6e11 cells (33 bytes each), 5.5e-7 of it; two arrays 305 bytes
+    assert abs(need / (2.16e17 * 153 / 1e6) - 1) < 0.01
     p = run("check", SCENE, "--set", HUGE, "--set", "fluid.streaming=two_array")
     m = re.search(r"needs ([0-9.e+]+) MB of memory", p.stderr)
-    assert m and abs(float(m.group(1)) / (2.16e17 * 338 / 1e6) - 1) < 0.01, p.stderr
+    assert m and abs(float(m.group(1)) / (2.16e17 * 305 / 1e6) - 1) < 0.01, p.stderr
     assert abs(have / mem_available_mb() - 1) < 0.2  # the machine's MemAvailable (it moves a little)
     assert "field snapshots" in p.stderr and "MB free" in p.stderr  # the disk too
     assert "warnings           2" in p.stdout
