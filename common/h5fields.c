@@ -41,7 +41,6 @@ struct h5fields {
     long *steps;      /* sorted, unique; the same on every process */
     double *times;
     int nsnaps, cap;
-    int max_nz;       /* the most planes of any process's block */
     /* the snapshot being written (h5fields_begin .. h5fields_end): its
      * group and datasets (-1: none), step, time and status so far */
     hid_t snap, dset[3];
@@ -187,9 +186,8 @@ static status_t check_block(const h5fields_t *w)
     return STATUS_OK;
 }
 
-/* The blocks tile the grid: at least their cells add up to it; and the
- * most planes of any block (collective). */
-static status_t check_tiling(h5fields_t *w)
+/* The blocks tile the grid: at least their cells add up to it (collective). */
+static status_t check_tiling(const h5fields_t *w)
 {
     const int64_t grid = (int64_t)w->n[0] * w->n[1] * w->n[2];
     int64_t mine = (int64_t)w->nb[0] * w->nb[1] * w->nb[2], all = 0;
@@ -202,11 +200,6 @@ static status_t check_tiling(h5fields_t *w)
                        "%s: the blocks of the processes have %lld cells together, the grid of %d x %d x %d has %lld "
                        "(the blocks must tile the grid)",
                        w->path, (long long)all, w->n[0], w->n[1], w->n[2], (long long)grid);
-    }
-    /* every process makes as many h5fields_planes calls as the tallest block needs */
-    if (MPI_Allreduce(&w->nb[2], &w->max_nz, 1, MPI_INT, MPI_MAX, w->comm) != MPI_SUCCESS) {
-        return log_msg(&w->log, STATUS_FATAL, "fields", "%s: MPI error (MPI_Allreduce) of the blocks' planes",
-                       w->path);
     }
     return STATUS_OK;
 }
@@ -250,7 +243,6 @@ static status_t set_up(h5fields_t *w, const char *path, const int n[3], double d
         w->lo[a] = part != NULL ? part->lo[a] : 0;
         w->nb[a] = part != NULL ? part->n[a] : n[a];
     }
-    w->max_nz = w->nb[2]; /* several processes: the largest of theirs (check_tiling) */
     w->dx = dx;
     status_t st = check_block(w);
     if (w->comm != MPI_COMM_NULL) {
@@ -505,10 +497,18 @@ int h5fields_slab_planes(int nx, int ny, int nz)
     return planes > 0 ? planes : 1;
 }
 
-int h5fields_slabs(const h5fields_t *w, int planes)
+status_t h5fields_slabs(h5fields_t *w, int planes, int *calls)
 {
     planes = planes > 0 ? planes : 1;
-    return (w->max_nz + planes - 1) / planes;
+    int mine = (w->nb[2] + planes - 1) / planes;
+    *calls = mine;
+    /* the processes' slabs may differ (their blocks do): the most calls of any */
+    if (w->comm != MPI_COMM_NULL && MPI_Allreduce(&mine, calls, 1, MPI_INT, MPI_MAX, w->comm) != MPI_SUCCESS) {
+        *calls = 0;
+        return log_msg(&w->log, STATUS_FATAL, "fields", "%s: MPI error (MPI_Allreduce) counting the slabs of planes",
+                       w->path);
+    }
+    return STATUS_OK;
 }
 
 status_t h5fields_begin(h5fields_t *w, long step, double time)

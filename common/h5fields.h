@@ -56,15 +56,17 @@ status_t h5fields_write(h5fields_t *w, long step, double time, const double *den
  * (local z; the arrays as for h5fields_write, for n[0] n[1] nz cells);
  * h5fields_end adds the time, closes the snapshot and rewrites the index.
  * With several processes each h5fields_planes is collective: every process
- * makes h5fields_slabs(w, planes) calls, those past the end of its block
- * with nz 0. After a failed call the next ones return its status, and
+ * makes the number of calls h5fields_slabs gives, those past the end of its
+ * block with nz 0. After a failed call the next ones return its status, and
  * h5fields_end still closes the snapshot. */
 status_t h5fields_begin(h5fields_t *w, long step, double time);
 status_t h5fields_planes(h5fields_t *w, int z0, int nz, const double *density, const double *velocity,
                          const unsigned char *flags);
 status_t h5fields_end(h5fields_t *w);
-/* Calls of `planes` planes each that cover the tallest block of the processes. */
-int h5fields_slabs(const h5fields_t *w, int planes);
+/* The calls of h5fields_planes each process makes when it writes `planes`
+ * planes at a time (its own number; they may differ from process to
+ * process): enough for the process that needs the most. Collective. */
+status_t h5fields_slabs(h5fields_t *w, int planes, int *calls);
 
 /* Cells of the buffers a writer of planes holds at most (33 bytes each: 8.7
  * MB), unless one plane alone has more; h5fields_slab_planes: planes of nx

@@ -369,10 +369,12 @@ static status_t maybe_snapshot(fluid_fmi_t *m)
         return st;
     }
     /* a slab of planes at a time: the buffers hold a slab, not the grid (on
-     * several ranks each makes as many calls as the tallest block needs) */
+     * several ranks each makes as many calls as the rank that needs the most:
+     * their blocks, and so their slabs, may differ) */
     st = h5fields_begin(m->fields, step, t);
     if (st == STATUS_OK) {
-        const int calls = h5fields_slabs(m->fields, m->slab);
+        int calls = 0;
+        st = h5fields_slabs(m->fields, m->slab, &calls);
         for (int c = 0; c < calls && st == STATUS_OK; c++) {
             const int z0 = c * m->slab, left = m->block[2] - z0;
             const int nz = left <= 0 ? 0 : left < m->slab ? left : m->slab;

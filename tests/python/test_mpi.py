@@ -166,6 +166,19 @@ def test_single_precision_and_bgk(tmp_path):
     assert_identical(run_ranks(tmp_path, box(ALL_FACES, "in_place", "single", "bgk"), "single", ranks=(1, 2)))
 
 
+def test_field_slabs_of_uneven_blocks(tmp_path):
+    # 96 x 96 x 40 cells on 3 ranks along z: blocks of 14, 13 and 13 planes, each written
+    # a slab at a time (fluid FMU, common/h5fields.h): the ranks' slabs differ, and every
+    # rank must still make as many collective writes as the others (a mismatch hangs)
+    text = (ROOT / "models" / "channel_poiseuille.yaml").read_text()
+    sets = ["domain.size=[2.4e-3,2.4e-3,1.0e-3]", "fluid.initial_profile=plane_channel", "run.fields=true",
+            "run.field_interval=6.25e-5", "run.end_time=1.875e-4", "run.output_interval=6.25e-5"]
+    outs = run_ranks(tmp_path, text, "slabs", ranks=(1, 3), sets=sets)
+    with h5py.File(outs[1], "r") as f:
+        assert f.attrs["ranks"] == 3
+    assert_identical(outs)
+
+
 def test_bad_rank_counts_are_refused(tmp_path):
     """run.ranks that does not match the ranks mpirun started, and blocks
     thinner than 4 cells, stop with the key and the numbers."""
