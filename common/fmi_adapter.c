@@ -159,6 +159,7 @@ fail:
 
 static void free_instance(inst_t *in)
 {
+    fmi_states_orphan(in);
     fmi_drop_component(in);
     scene_free(in->base);
     fmi_vars_free(&in->vars);
@@ -322,6 +323,9 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
     const char *fn = "fmi2ExitInitializationMode";
     BEGIN(fn, M_EXIT_INIT);
     fmi_trace(in, fn, "%s", "");
+    if (fmi_states_keep(in, fn) >= fmi2Error) {
+        return fmi2Error;
+    }
     status_t st = fmi_ensure_component(in, fn);
     if (st >= STATUS_ERROR) {
         in->state = st == STATUS_FATAL ? S_FATAL : S_ERROR;
@@ -344,6 +348,9 @@ fmi2Status fmi2Reset(fmi2Component c)
 {
     BEGIN("fmi2Reset", M_RESET);
     fmi_trace(in, "fmi2Reset", "%s", "");
+    if (fmi_states_keep(in, "fmi2Reset") >= fmi2Error) {
+        return fmi2Error;
+    }
     fmi_drop_component(in);
     for (int j = 0; j < in->vars.n; j++) {
         in->values[j] = in->vars.v[j].start;
@@ -404,6 +411,10 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     if (in->has_stop && t + h > in->t_stop + TIME_TOL * fmax(fabs(in->t_stop), h)) {
         return fmi_fail(in, fn, "the step to t = %.17g s would pass stopTime = %.17g s of fmi2SetupExperiment", t + h,
                         in->t_stop);
+    }
+    /* the saved states that are still this component: copied before it moves on */
+    if (fmi_states_keep(in, fn) >= fmi2Error) {
+        return fmi2Error;
     }
     if (in->model->check_step != NULL && in->model->check_step(in->comp, h, &in->log) >= STATUS_ERROR) {
         return fmi_fail(in, fn,

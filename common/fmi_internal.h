@@ -66,6 +66,8 @@ enum {
 #define M_CANCEL_STEP S_STEP_IN_PROGRESS
 #define M_GET_STATUS (S_STEP_COMPLETE | S_STEP_IN_PROGRESS | S_STEP_FAILED | S_STEP_CANCELED | S_TERMINATED)
 
+typedef struct fmu_state fmu_state_t;
+
 typedef struct {
     unsigned magic;
     char *name;
@@ -88,12 +90,31 @@ typedef struct {
     void *comp;
     double t, t_start, t_stop;
     int has_stop;
+    fmu_state_t *lazy_states; /* the states whose native part is still comp itself */
 } inst_t;
 
-typedef struct {
-    size_t size;
-    unsigned char bytes[];
-} fmu_state_t;
+/* An FMU state (fmi_state.c): header and values, then the component's
+ * native state. fmi2GetFMUstate copies the header and values at once but
+ * not the native part (the population arrays: as large as the grid): the
+ * state stays lazy, the live component itself, until a call would change
+ * the component (fmi_states_keep copies the native part first) or the
+ * state is freed; serialised meanwhile, it is written straight from the
+ * component. So a checkpoint (get, serialise, free) holds the serialised
+ * bytes beside the component, not a copy as well. */
+struct fmu_state {
+    size_t size;          /* serialised bytes: header, values, native state */
+    size_t head;          /* header and values, at the start of bytes */
+    inst_t *lazy;         /* the instance whose component holds the native part, or NULL: in bytes */
+    int orphan;           /* that instance was freed first: the native part is lost */
+    fmu_state_t *next;    /* the instance's other lazy states */
+    unsigned char *bytes; /* size bytes; head while lazy */
+};
+
+/* Copies the native part of every lazy state of the instance (before a call
+ * that changes its component); fmi2Error (logged, nothing changed) when
+ * memory is short. fmi_states_orphan: the instance is being freed. */
+fmi2Status fmi_states_keep(inst_t *in, const char *fn);
+void fmi_states_orphan(inst_t *in);
 
 /* Logging (fmi_instance.c): through the FMI logger with the status as
  * category; errors always, other messages as fmi2SetDebugLogging asks.

@@ -1,6 +1,8 @@
 /* fmi_state.c — FMU state of the generic FMI layer (fmi_internal.h): one
  * self-contained byte blob (header, values, native state), so that
- * get/set and serialise/deserialise share one format. */
+ * get/set and serialise/deserialise share one format. The native part of a
+ * state taken from the instance is copied only when the component is about
+ * to change (fmi_states_keep): until then the component is that part. */
 #include "fmi_internal.h"
 
 #include <math.h>
@@ -21,6 +23,72 @@ typedef struct {
     double t, t_start, t_stop;
 } state_header_t;
 
+static void state_free(fmu_state_t *s)
+{
+    if (s == NULL) {
+        return;
+    }
+    if (s->lazy != NULL) { /* out of its instance's list */
+        fmu_state_t **p = &s->lazy->lazy_states;
+        while (*p != NULL && *p != s) {
+            p = &(*p)->next;
+        }
+        if (*p == s) {
+            *p = s->next;
+        }
+    }
+    free(s->bytes);
+    free(s);
+}
+
+/* The native part of a lazy state into its own bytes. */
+static fmi2Status state_keep(fmu_state_t *s, const char *fn)
+{
+    inst_t *in = s->lazy;
+    unsigned char *b = realloc(s->bytes, s->size);
+    if (b == NULL) {
+        return fmi_fail(in, fn, "out of memory for a copy of a saved FMU state (%zu bytes), made before the "
+                        "component changes: free the states no longer needed (fmi2FreeFMUstate)", s->size);
+    }
+    s->bytes = b;
+    const status_t st = in->model->state_save(in->comp, s->bytes + s->head, s->size - s->head);
+    if (st >= STATUS_ERROR) {
+        return fmi_report(in, st, fn, "the %s component could not save its state", in->model->identifier);
+    }
+    fmu_state_t **p = &in->lazy_states;
+    while (*p != s) {
+        p = &(*p)->next;
+    }
+    *p = s->next;
+    s->lazy = NULL;
+    s->next = NULL;
+    return fmi2OK;
+}
+
+fmi2Status fmi_states_keep(inst_t *in, const char *fn)
+{
+    while (in->lazy_states != NULL) {
+        const fmi2Status st = state_keep(in->lazy_states, fn);
+        if (st >= fmi2Error) {
+            return st;
+        }
+    }
+    return fmi2OK;
+}
+
+void fmi_states_orphan(inst_t *in)
+{
+    for (fmu_state_t *s = in->lazy_states, *next; s != NULL; s = next) {
+        next = s->next;
+        s->lazy = NULL;
+        s->next = NULL;
+        s->orphan = 1;
+    }
+    in->lazy_states = NULL;
+}
+
+/* A state of the instance now: the header and values copied, the native
+ * part left in the component (lazy). */
 static fmi2Status save_state(inst_t *in, const char *fn, fmu_state_t **out)
 {
     state_header_t h;
@@ -37,24 +105,33 @@ static fmi2Status save_state(inst_t *in, const char *fn, fmu_state_t **out)
     h.t_start = in->t_start;
     h.t_stop = in->t_stop;
     const size_t nval = (size_t)in->vars.n * sizeof(double);
-    const size_t size = sizeof h + 2 * nval + (size_t)h.comp_size;
-    fmu_state_t *s = malloc(sizeof *s + size);
-    if (s == NULL) {
-        return fmi_fail(in, fn, "out of memory for an FMU state of %zu bytes", size);
+    fmu_state_t *s = calloc(1, sizeof *s);
+    if (s != NULL) {
+        s->head = sizeof h + 2 * nval;
+        s->size = s->head + (size_t)h.comp_size;
+        s->bytes = malloc(s->head);
     }
-    s->size = size;
+    if (s == NULL || s->bytes == NULL) {
+        free(s);
+        return fmi_fail(in, fn, "out of memory for an FMU state (%zu bytes)", sizeof h + 2 * nval);
+    }
     memcpy(s->bytes, &h, sizeof h);
     memcpy(s->bytes + sizeof h, in->values, nval);
     memcpy(s->bytes + sizeof h + nval, in->made_with, nval);
     if (in->comp != NULL) {
-        status_t st = in->model->state_save(in->comp, s->bytes + sizeof h + 2 * nval, (size_t)h.comp_size);
-        if (st >= STATUS_ERROR) {
-            free(s);
-            return fmi_report(in, st, fn, "the %s component could not save its state", in->model->identifier);
-        }
+        s->lazy = in;
+        s->next = in->lazy_states;
+        in->lazy_states = s;
     }
     *out = s;
     return fmi2OK;
+}
+
+/* A state whose instance was freed before its native part was copied. */
+static fmi2Status orphaned(const inst_t *in, const char *fn, const fmu_state_t *s)
+{
+    return s->orphan ? fmi_fail(in, fn, "the FMU state was taken from an instance freed since (fmi2FreeInstance): "
+                                "its component's state is gone") : fmi2OK;
 }
 
 /* Checks that a blob was made by an FMU of this model and scene. */
@@ -97,7 +174,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
     if (st >= fmi2Error) {
         return st;
     }
-    free(*FMUstate); /* a previous state handed in for reuse */
+    state_free(*FMUstate); /* a previous state handed in for reuse */
     *FMUstate = s;
     return fmi2OK;
 }
@@ -106,13 +183,22 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
 {
     const char *fn = "fmi2SetFMUstate";
     BEGIN(fn, M_FMU_STATE);
-    const fmu_state_t *s = FMUstate;
+    fmu_state_t *s = FMUstate;
     state_header_t h;
     if (s == NULL) {
         return fmi_fail(in, fn, "FMUstate is NULL");
     }
-    if (check_blob(in, fn, s->bytes, s->size, &h) != fmi2OK) {
+    if (orphaned(in, fn, s) != fmi2OK || check_blob(in, fn, s->bytes, s->size, &h) != fmi2OK) {
         return fmi2Error;
+    }
+    /* this instance's own state, its component unchanged since (a change
+     * would have copied it): the component is in that state already */
+    const int current = s->lazy == in;
+    if (!current && s->lazy != NULL && state_keep(s, fn) >= fmi2Error) {
+        return fmi2Error; /* another instance's state: its own copy first */
+    }
+    if (!current && fmi_states_keep(in, fn) >= fmi2Error) {
+        return fmi2Error; /* the states taken here before, before the component changes */
     }
     fmi_trace(in, fn, "t=%.17g", h.t);
     const size_t nval = (size_t)in->vars.n * sizeof(double);
@@ -150,7 +236,8 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
                 return (fmi2Status)st;
             }
         }
-        status_t st = in->model->state_restore(in->comp, s->bytes + sizeof h + 2 * nval, (size_t)h.comp_size);
+        status_t st = current ? STATUS_OK
+                              : in->model->state_restore(in->comp, s->bytes + sizeof h + 2 * nval, (size_t)h.comp_size);
         if (st >= STATUS_ERROR) {
             in->state = st == STATUS_FATAL ? S_FATAL : S_ERROR;
             return fmi_report(in, st, fn, "the %s component could not restore the state", in->model->identifier);
@@ -170,7 +257,7 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
     if (FMUstate == NULL) {
         return fmi_fail(in, "fmi2FreeFMUstate", "FMUstate is NULL");
     }
-    free(*FMUstate);
+    state_free(*FMUstate);
     *FMUstate = NULL;
     return fmi2OK;
 }
@@ -193,10 +280,24 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
     if (s == NULL || serializedState == NULL) {
         return fmi_fail(in, fn, "%s is NULL", s == NULL ? "FMUstate" : "serializedState");
     }
+    if (orphaned(in, fn, s) != fmi2OK) {
+        return fmi2Error;
+    }
     if (size != s->size) {
         return fmi_fail(in, fn, "size = %zu; allowed: %zu, as fmi2SerializedFMUstateSize gives", size, s->size);
     }
-    memcpy(serializedState, s->bytes, s->size);
+    if (s->lazy == NULL) {
+        memcpy(serializedState, s->bytes, s->size);
+        return fmi2OK;
+    }
+    /* straight from the component, which is still in that state */
+    const inst_t *owner = s->lazy;
+    memcpy(serializedState, s->bytes, s->head);
+    const status_t st = owner->model->state_save(owner->comp, (unsigned char *)serializedState + s->head,
+                                                 s->size - s->head);
+    if (st >= STATUS_ERROR) {
+        return fmi_report(in, st, fn, "the %s component could not save its state", owner->model->identifier);
+    }
     return fmi2OK;
 }
 
@@ -212,13 +313,18 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     if (check_blob(in, fn, (const unsigned char *)serializedState, size, &h) != fmi2OK) {
         return fmi2Error;
     }
-    fmu_state_t *s = malloc(sizeof *s + size);
+    fmu_state_t *s = calloc(1, sizeof *s);
+    if (s != NULL && (s->bytes = malloc(size)) == NULL) {
+        free(s);
+        s = NULL;
+    }
     if (s == NULL) {
         return fmi_fail(in, fn, "out of memory for an FMU state of %zu bytes", size);
     }
     s->size = size;
+    s->head = size;
     memcpy(s->bytes, serializedState, size);
-    free(*FMUstate);
+    state_free(*FMUstate);
     *FMUstate = s;
     return fmi2OK;
 }

@@ -52,9 +52,10 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
         /* the serialized fluid state: the population array(s) and the flags,
          * plus a copy of the output rows */
         need->checkpoint = grid + need->output;
-        /* while a checkpoint is written the FMU's state copy and its serialized
-         * bytes are held beside the grid */
-        need->memory += 2.0 * grid;
+        /* while a checkpoint is written its serialized bytes are held beside
+         * the grid (the FMU state itself copies no populations: it stays the
+         * component until the component changes, common/fmi_state.c) */
+        need->memory += grid;
     }
     need->disk = need->output + need->fields + 2.0 * need->checkpoint;
     return STATUS_OK;
@@ -88,7 +89,7 @@ int resources_compare(const resources_need_t *need, const char *folder, status_t
                 "this machine has %.4g MB available (MemAvailable in /proc/meminfo): use fewer cells (a larger dx, "
                 "a smaller domain)",
                 need->memory / 1e6, need->grid_cells / 1e6, need->cell_bytes,
-                need->checkpoint > 0.0 ? ", the state copies of a checkpoint" : "", mem / 1e6);
+                need->checkpoint > 0.0 ? ", the serialized state of a checkpoint" : "", mem / 1e6);
         short_of++;
     }
     struct statvfs v;

@@ -463,7 +463,31 @@ def test_fmu_state_restore_is_bit_identical(fmus, tmp_path, fmu, inputs):
     # a damaged blob is refused with a message
     other.fails(other.fmu.deSerializeFMUstate, b"garbage" * 20, expect="bad magic")
     other.close()
+    # a state keeps the component's native part uncopied until the component
+    # changes (common/fmi_state.c): serialised at once it is written from the
+    # component, and a state copied by the step that follows it gives the same
+    # bytes; both restore the run
+    lazy = s.fmu.getFMUstate()
+    kept = s.fmu.getFMUstate()
+    blob_lazy = s.fmu.serializeFMUstate(lazy)
+    s.fmu.freeFMUstate(lazy)
+    later = drive(s, inputs, (n1 + n2) * DT, 3)  # copies `kept` before the first input reaches the component
+    assert s.fmu.serializeFMUstate(kept) == blob_lazy
+    s.fmu.setFMUstate(kept)
+    assert np.array_equal(drive(s, inputs, (n1 + n2) * DT, 3), later)
+    # restoring the state the component is still in changes nothing
+    same = s.fmu.getFMUstate()
+    s.fmu.setFMUstate(same)
+    assert np.array_equal(drive(s, inputs, (n1 + n2 + 3) * DT, 2), drive_again(s, same, inputs, (n1 + n2 + 3) * DT, 2))
+    s.fmu.freeFMUstate(same)
+    s.fmu.freeFMUstate(kept)
     s.close()
+
+
+def drive_again(s, state, inputs, t0, n):
+    """Back to state, then n steps from t0 as drive."""
+    s.fmu.setFMUstate(state)
+    return drive(s, inputs, t0, n)
 
 
 def test_fields_string_parameter_and_lazy_totals(coupler, tmp_path):
