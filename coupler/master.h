@@ -88,12 +88,12 @@ status_t master_step(master_t *m, double t, double h);
 
 /* Checkpoints (run_checkpoint.c): what this run's checkpoints belong to;
  * the status every rank agrees on; a checkpoint at p written by all ranks
- * together; the replay record of step n on restart; an FMU's state from
- * its serialised bytes. */
+ * together; the replay record of step n on restart; an FMU set to a state
+ * (deserialized from a checkpoint), the state freed. */
 status_t master_find_origin(master_t *m);
 status_t master_agree(master_t *m, status_t st);
 status_t master_save_checkpoint(master_t *m, output_t *out, const run_point_t *p);
 status_t master_checkpoint_record(master_t *m, replay_t *c, long n);
-status_t master_deserialize(fmu_t *f, const unsigned char *bytes, size_t size);
+status_t master_restore(fmu_t *f, void **state);
 
 #endif

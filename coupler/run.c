@@ -160,19 +160,39 @@ static status_t check_guid(master_t *m, fmu_t *f)
     return STATUS_OK;
 }
 
-/* resume: the field file of an interrupted run is continued (output.fields_resume). */
-static status_t init_fmus(master_t *m, double t_stop, int resume)
+/* The serialized state of a checkpoint as an FMU state of f, before f
+ * leaves initialization (its component, the grid, does not exist yet), and
+ * the serialized bytes freed: a restart holds the bytes and their copy, then
+ * the copy and the grid, never all three (a grid's size each). */
+static status_t deserialize_early(fmu_t *f, unsigned char **bytes, size_t size, void **state)
+{
+    const status_t st = fmu_deserialize_state(f, *bytes, size, state);
+    free(*bytes);
+    *bytes = NULL;
+    return st;
+}
+
+/* resume: the field file of an interrupted run is continued (output.fields_resume);
+ * with a checkpoint (rs), its states are deserialized into states[0] (fluid)
+ * and states[1] (rigid) for master_restore. */
+static status_t init_fmus(master_t *m, double t_stop, int resume, checkpoint_t *rs, void *states[2])
 {
     status_t st = fmu_instantiate(m->fluid, 0.0, t_stop);
     const fmu_var_t *fields = fmu_find(m->fluid, resume ? "output.fields_resume" : "output.fields");
     if (st < STATUS_ERROR && fields != NULL && m->fields[0] != '\0') {
         st = status_worst(st, fmu_set_string(m->fluid, fields->vr, m->fields));
     }
+    if (st < STATUS_ERROR && rs != NULL) {
+        st = status_worst(st, deserialize_early(m->fluid, &rs->fluid_state, rs->fluid_size, &states[0]));
+    }
     if (st < STATUS_ERROR) {
         st = status_worst(st, fmu_exit_init(m->fluid));
     }
     if (st < STATUS_ERROR && m->rigid != NULL) {
         st = status_worst(st, fmu_instantiate(m->rigid, 0.0, t_stop));
+        if (st < STATUS_ERROR && rs != NULL) {
+            st = status_worst(st, deserialize_early(m->rigid, &rs->rigid_state, rs->rigid_size, &states[1]));
+        }
         if (st < STATUS_ERROR) {
             st = status_worst(st, fmu_exit_init(m->rigid));
         }
@@ -217,6 +237,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     m.log = *log;
     replay_t cp = {0};
     checkpoint_t restart = {0};
+    void *restored[2] = {NULL, NULL}; /* the checkpoint's FMU states, deserialized (init_fmus) */
     output_t *out = NULL;
     int rc = 1;
     status_t st;
@@ -335,7 +356,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             goto done;
         }
     }
-    if (init_fmus(&m, t_end, opt->restart != NULL) >= STATUS_ERROR) {
+    if (init_fmus(&m, t_end, opt->restart != NULL, opt->restart != NULL ? &restart : NULL, restored) >= STATUS_ERROR) {
         log_msg(log, STATUS_ERROR, CAT, "the FMUs could not be initialised (see above); nothing was run");
         goto done;
     }
@@ -361,9 +382,9 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         goto done;
     }
     if (opt->restart != NULL) {
-        status_t rst = master_deserialize(m.fluid, restart.fluid_state, restart.fluid_size);
+        status_t rst = master_restore(m.fluid, &restored[0]);
         if (rst < STATUS_ERROR && m.rigid != NULL) {
-            rst = status_worst(rst, master_deserialize(m.rigid, restart.rigid_state, restart.rigid_size));
+            rst = status_worst(rst, master_restore(m.rigid, &restored[1]));
         }
         if (rst >= STATUS_ERROR) {
             log_msg(log, STATUS_ERROR, CAT, "the FMU states of %s could not be restored (see above)", opt->restart);
@@ -584,6 +605,12 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
 stopped:
     log_msg(log, STATUS_ERROR, CAT, "stopped; %s holds the output rows written so far", opt->output);
 done:
+    if (restored[0] != NULL) { /* a restart stopped before its states were restored */
+        fmu_free_state(m.fluid, &restored[0]);
+    }
+    if (restored[1] != NULL) {
+        fmu_free_state(m.rigid, &restored[1]);
+    }
     if (cp.fluid_state != NULL) {
         fmu_free_state(m.fluid, &cp.fluid_state);
     }

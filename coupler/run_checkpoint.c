@@ -65,15 +65,11 @@ static status_t serialize(fmu_t *f, unsigned char **bytes, size_t *size)
     return st;
 }
 
-status_t master_deserialize(fmu_t *f, const unsigned char *bytes, size_t size)
+status_t master_restore(fmu_t *f, void **state)
 {
-    void *state = NULL;
-    status_t st = fmu_deserialize_state(f, bytes, size, &state);
-    if (st < STATUS_ERROR) {
-        st = status_worst(st, fmu_set_state(f, state));
-    }
-    if (state != NULL) {
-        st = status_worst(st, fmu_free_state(f, &state));
+    status_t st = *state != NULL ? fmu_set_state(f, *state) : STATUS_ERROR;
+    if (*state != NULL) {
+        st = status_worst(st, fmu_free_state(f, state));
     }
     return st;
 }
