@@ -174,7 +174,9 @@ static status_t deserialize_early(fmu_t *f, unsigned char **bytes, size_t size, 
 
 /* resume: the field file of an interrupted run is continued (output.fields_resume);
  * with a checkpoint (rs), its states are deserialized into states[0] (fluid)
- * and states[1] (rigid) for master_restore. */
+ * and states[1] (rigid) for master_restore, and every rank learns whether
+ * that worked on all of them before the fluid's collective initialisation
+ * and at the end (a rank that failed alone would leave the others waiting). */
 static status_t init_fmus(master_t *m, double t_stop, int resume, checkpoint_t *rs, void *states[2])
 {
     status_t st = fmu_instantiate(m->fluid, 0.0, t_stop);
@@ -182,8 +184,11 @@ static status_t init_fmus(master_t *m, double t_stop, int resume, checkpoint_t *
     if (st < STATUS_ERROR && fields != NULL && m->fields[0] != '\0') {
         st = status_worst(st, fmu_set_string(m->fluid, fields->vr, m->fields));
     }
-    if (st < STATUS_ERROR && rs != NULL) {
-        st = status_worst(st, deserialize_early(m->fluid, &rs->fluid_state, rs->fluid_size, &states[0]));
+    if (rs != NULL) {
+        if (st < STATUS_ERROR) {
+            st = status_worst(st, deserialize_early(m->fluid, &rs->fluid_state, rs->fluid_size, &states[0]));
+        }
+        st = master_agree(m, st);
     }
     if (st < STATUS_ERROR) {
         st = status_worst(st, fmu_exit_init(m->fluid));
@@ -197,7 +202,7 @@ static status_t init_fmus(master_t *m, double t_stop, int resume, checkpoint_t *
             st = status_worst(st, fmu_exit_init(m->rigid));
         }
     }
-    return st;
+    return rs != NULL ? master_agree(m, st) : st;
 }
 
 static void free_master(master_t *m)
