@@ -323,9 +323,6 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
     const char *fn = "fmi2ExitInitializationMode";
     BEGIN(fn, M_EXIT_INIT);
     fmi_trace(in, fn, "%s", "");
-    if (fmi_states_keep(in, fn) >= fmi2Error) {
-        return fmi2Error;
-    }
     status_t st = fmi_ensure_component(in, fn);
     if (st >= STATUS_ERROR) {
         in->state = st == STATUS_FATAL ? S_FATAL : S_ERROR;

@@ -77,9 +77,11 @@ typedef struct {
     status_t (*step)(void *comp, const fmi_vars_t *vars, const double *values, double t, double h, const log_t *log);
     /* Writes every output into values[]. */
     void (*outputs)(void *comp, const fmi_vars_t *vars, double *values);
-    /* Optional: computes the outputs marked lazy (NULL: the model has none).
-     * STATUS_ERROR (logged) when they cannot be trusted (numerical trouble):
-     * the get fails and the instance goes to the Error state. */
+    /* Optional: computes the outputs marked lazy (NULL: the model has none),
+     * reading the component without changing it (a saved FMU state may still
+     * be the component itself: fmi_state.c). STATUS_ERROR (logged) when they
+     * cannot be trusted (numerical trouble): the get fails and the instance
+     * goes to the Error state. */
     status_t (*lazy_outputs)(void *comp, const fmi_vars_t *vars, double *values);
     /* Optional: a String parameter's value, called right after create (NULL:
      * the model has no String variables). */

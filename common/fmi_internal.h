@@ -110,9 +110,10 @@ struct fmu_state {
     unsigned char *bytes; /* size bytes; head while lazy */
 };
 
-/* Copies the native part of every lazy state of the instance (before a call
- * that changes its component); fmi2Error (logged, nothing changed) when
- * memory is short. fmi_states_orphan: the instance is being freed. */
+/* Copies the native part of every lazy state of the instance, before a call
+ * changes its component (a step, a parameter set, a reset, another state
+ * restored); fmi2Error (logged, nothing changed) when memory is short.
+ * fmi_states_orphan: the instance is being freed. */
 fmi2Status fmi_states_keep(inst_t *in, const char *fn);
 void fmi_states_orphan(inst_t *in);
 

@@ -42,9 +42,6 @@ static fmi2Status get_values(fmi2Component c, const char *fn, fmi_type_t type, c
     }
     for (size_t i = 0; i < nvr && in->lazy_stale && in->comp != NULL; i++) {
         if (in->vars.v[vr[i]].lazy) {
-            if (fmi_states_keep(in, fn) >= fmi2Error) {
-                return fmi2Error; /* the outputs are computed by the component */
-            }
             const status_t lst = in->model->lazy_outputs(in->comp, &in->vars, in->values);
             if (lst >= STATUS_ERROR) {
                 /* the component found its state broken (e.g. NaN in the
@@ -117,11 +114,6 @@ static fmi2Status set_values(fmi2Component c, const char *fn, fmi_type_t type, c
     if (fmi_bad_refs(in, fn, vr, nvr, value, type)) {
         return fmi2Error;
     }
-    /* inputs reach the component, parameters may replace it: the saved
-     * states that are still the component are copied first */
-    if (fmi_states_keep(in, fn) >= fmi2Error) {
-        return fmi2Error;
-    }
     int parameters = 0;
     for (size_t i = 0; i < nvr; i++) {
         const fmi_var_t *v = &in->vars.v[vr[i]];
@@ -148,6 +140,11 @@ static fmi2Status set_values(fmi2Component c, const char *fn, fmi_type_t type, c
                             range, v->unit != NULL ? " " : "", v->unit != NULL ? v->unit : "");
         }
         parameters |= v->causality == FMI_PARAMETER;
+    }
+    /* a parameter replaces the component (below): the saved states that
+     * are still the component are copied first (inputs only reach values[]) */
+    if (parameters && in->comp != NULL && fmi_states_keep(in, fn) >= fmi2Error) {
+        return fmi2Error;
     }
     for (size_t i = 0; i < nvr; i++) {
         const double x = type == FMI_REAL      ? ((const fmi2Real *)value)[i]
@@ -184,7 +181,7 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 {
     const char *fn = "fmi2SetString";
     BEGIN(fn, M_SET);
-    if (fmi_bad_refs(in, fn, vr, nvr, value, FMI_STRING) || fmi_states_keep(in, fn) >= fmi2Error) {
+    if (fmi_bad_refs(in, fn, vr, nvr, value, FMI_STRING)) {
         return fmi2Error;
     }
     for (size_t i = 0; i < nvr; i++) {
@@ -198,6 +195,10 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
             return fmi_fail(in, fn, "%s (value reference %u) = NULL; allowed: a string (\"\" for none)", v->name,
                             vr[i]);
         }
+    }
+    /* the component is replaced (below): the saved states that are still it are copied first */
+    if (nvr > 0 && in->comp != NULL && fmi_states_keep(in, fn) >= fmi2Error) {
+        return fmi2Error;
     }
     for (size_t i = 0; i < nvr; i++) {
         char *copy = strdup(value[i]);

@@ -50,9 +50,10 @@ struct h5fields {
     char snap_name[64];
 };
 
-/* The datasets of a snapshot: name, HDF5 type, values per cell. */
+/* The datasets of a snapshot: name, values per cell, HDF5 type. */
 static const char *const FIELD_NAMES[3] = {"density", "velocity", "flags"};
 static const int FIELD_COMPS[3] = {1, 3, 1};
+static hid_t field_type(int k) { return k == 2 ? H5T_NATIVE_UCHAR : H5T_NATIVE_DOUBLE; }
 
 static status_t open_file(const char *path, const int n[3], double dx, const h5fields_part_t *part, int resume,
                           const log_t *log, h5fields_t **out);
@@ -341,11 +342,10 @@ static status_t create_one(h5fields_t *w, int k)
     snprintf(what, sizeof what, "%s/%s", w->snap_name, FIELD_NAMES[k]);
     const int comps = FIELD_COMPS[k];
     const hsize_t dims[4] = {(hsize_t)w->n[2], (hsize_t)w->n[1], (hsize_t)w->n[0], (hsize_t)comps};
-    const hid_t type = k == 2 ? H5T_NATIVE_UCHAR : H5T_NATIVE_DOUBLE;
     hid_t space = H5Screate_simple(comps > 1 ? 4 : 3, dims, NULL);
     status_t st = agree(w, space < 0 ? fail(w, what) : STATUS_OK, what);
     if (st == STATUS_OK) {
-        w->dset[k] = H5Dcreate2(w->snap, FIELD_NAMES[k], type, space, H5P_DEFAULT, w->dcpl, H5P_DEFAULT);
+        w->dset[k] = H5Dcreate2(w->snap, FIELD_NAMES[k], field_type(k), space, H5P_DEFAULT, w->dcpl, H5P_DEFAULT);
         st = agree(w, w->dset[k] < 0 ? fail(w, what) : STATUS_OK, what);
     }
     if (space >= 0) {
@@ -359,13 +359,12 @@ static status_t write_planes_one(h5fields_t *w, int k, int z0, int nz, const voi
 {
     char what[96];
     snprintf(what, sizeof what, "%s/%s", w->snap_name, FIELD_NAMES[k]);
-    const hid_t type = k == 2 ? H5T_NATIVE_UCHAR : H5T_NATIVE_DOUBLE;
     hid_t fspace = H5Dget_space(w->dset[k]), mspace = -1;
     status_t st = fspace < 0 || select_planes(w, fspace, FIELD_COMPS[k], z0, nz, &mspace) != STATUS_OK
                       ? fail(w, what)
                       : STATUS_OK;
     st = agree(w, st, what);
-    if (st == STATUS_OK && H5Dwrite(w->dset[k], type, mspace, fspace, w->dxpl, data) < 0) {
+    if (st == STATUS_OK && H5Dwrite(w->dset[k], field_type(k), mspace, fspace, w->dxpl, data) < 0) {
         st = fail(w, what);
     }
     st = agree(w, st, what);
@@ -605,7 +604,7 @@ status_t h5fields_write(h5fields_t *w, long step, double time, const double *den
     if (st != STATUS_OK) {
         return st;
     }
-    h5fields_planes(w, 0, w->nb[2], density, velocity, flags);
+    h5fields_planes(w, 0, w->nb[2], density, velocity, flags); /* its status: h5fields_end's */
     return h5fields_end(w);
 }
 

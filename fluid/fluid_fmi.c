@@ -378,8 +378,8 @@ static status_t maybe_snapshot(fluid_fmi_t *m)
         for (int c = 0; c < calls && st == STATUS_OK; c++) {
             const int z0 = c * m->slab, left = m->block[2] - z0;
             const int nz = left <= 0 ? 0 : left < m->slab ? left : m->slab;
-            load_fields(m, nz > 0 ? z0 : 0, nz);
-            st = h5fields_planes(m->fields, nz > 0 ? z0 : 0, nz, m->rho, m->u, m->flags);
+            load_fields(m, z0, nz);
+            st = h5fields_planes(m->fields, z0, nz, m->rho, m->u, m->flags);
         }
         st = status_worst(st, h5fields_end(m->fields));
     }

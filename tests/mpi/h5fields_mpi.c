@@ -110,7 +110,7 @@ static int write_slabs(const run_t *r, h5fields_t *w, long step, double time, co
         const int z0 = c * planes, left = nb[2] - z0, nz = left <= 0 ? 0 : left < planes ? left : planes;
         const int slo[3] = {lo[0], lo[1], lo[2] + z0}, snb[3] = {nb[0], nb[1], nz};
         fill(slo, snb, version, rho, u, flags);
-        ok = check(r, h5fields_planes(w, nz > 0 ? z0 : 0, nz, rho, u, flags), STATUS_OK, "a slab of planes");
+        ok = check(r, h5fields_planes(w, z0, nz, rho, u, flags), STATUS_OK, "a slab of planes");
     }
     return check(r, h5fields_end(w), ok ? STATUS_OK : STATUS_ERROR, "end a snapshot") && ok;
 }

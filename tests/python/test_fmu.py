@@ -471,7 +471,7 @@ def test_fmu_state_restore_is_bit_identical(fmus, tmp_path, fmu, inputs):
     kept = s.fmu.getFMUstate()
     blob_lazy = s.fmu.serializeFMUstate(lazy)
     s.fmu.freeFMUstate(lazy)
-    later = drive(s, inputs, (n1 + n2) * DT, 3)  # copies `kept` before the first input reaches the component
+    later = drive(s, inputs, (n1 + n2) * DT, 3)  # its first step copies `kept` first
     assert s.fmu.serializeFMUstate(kept) == blob_lazy
     s.fmu.setFMUstate(kept)
     assert np.array_equal(drive(s, inputs, (n1 + n2) * DT, 3), later)
