@@ -92,6 +92,7 @@ status_t master_step(master_t *m, double t, double h);
  * (deserialized from a checkpoint), the state freed. */
 status_t master_find_origin(master_t *m);
 status_t master_agree(master_t *m, status_t st);
+status_t master_restart_fields(master_t *m, const char *checkpoint, int *resume);
 status_t master_save_checkpoint(master_t *m, output_t *out, const run_point_t *p);
 status_t master_checkpoint_record(master_t *m, replay_t *c, long n);
 status_t master_restore(fmu_t *f, void **state);

@@ -361,7 +361,24 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             goto done;
         }
     }
-    if (init_fmus(&m, t_end, opt->restart != NULL, opt->restart != NULL ? &restart : NULL, restored) >= STATUS_ERROR) {
+    /* a restart continues the field file, or a copy of the interrupted run's
+     * when it writes to another output (master_restart_fields) */
+    int resume_fields = 0;
+    if (opt->restart != NULL && m.fields[0] != '\0') {
+        status_t fst = STATUS_OK;
+        if (writer) {
+            fst = master_restart_fields(&m, opt->restart, &resume_fields);
+        }
+        if (master_agree(&m, fst) >= STATUS_ERROR) {
+            goto done;
+        }
+        int v = resume_fields;
+        if (mpi_env_max(&v, log) != STATUS_OK) {
+            goto done;
+        }
+        resume_fields = v;
+    }
+    if (init_fmus(&m, t_end, resume_fields, opt->restart != NULL ? &restart : NULL, restored) >= STATUS_ERROR) {
         log_msg(log, STATUS_ERROR, CAT, "the FMUs could not be initialised (see above); nothing was run");
         goto done;
     }

@@ -74,6 +74,97 @@ status_t master_restore(fmu_t *f, void **state)
     return st;
 }
 
+/* Copies the file src to dst (through dst.tmp, synced, renamed over dst):
+ * dst is whole or absent, never a part. */
+static status_t copy_file(const char *src, const char *dst, const log_t *log)
+{
+    char tmp[4200];
+    snprintf(tmp, sizeof tmp, "%s.tmp", dst);
+    FILE *in = fopen(src, "rb");
+    if (in == NULL) {
+        return log_msg(log, STATUS_ERROR, CAT, "cannot read %s: %s", src, strerror(errno));
+    }
+    FILE *out = fopen(tmp, "wb");
+    if (out == NULL) {
+        const int e = errno;
+        fclose(in);
+        return log_msg(log, STATUS_ERROR, CAT, "cannot write %s: %s", tmp, strerror(e));
+    }
+    enum { CHUNK = 1 << 20 };
+    char *buf = malloc(CHUNK);
+    int err = buf == NULL ? ENOMEM : 0;
+    const char *what = buf == NULL ? "a buffer" : NULL;
+    size_t n;
+    while (err == 0 && (n = fread(buf, 1, CHUNK, in)) > 0) {
+        if (fwrite(buf, 1, n, out) != n) {
+            err = errno != 0 ? errno : EIO;
+            what = tmp;
+        }
+    }
+    if (err == 0 && ferror(in)) {
+        err = errno != 0 ? errno : EIO;
+        what = src;
+    }
+    free(buf);
+    fclose(in);
+    if (fflush(out) != 0 || fsync(fileno(out)) != 0) {
+        err = err != 0 ? err : errno;
+        what = what != NULL ? what : tmp;
+    }
+    if (fclose(out) != 0 && err == 0) {
+        err = errno;
+        what = tmp;
+    }
+    if (err == 0 && rename(tmp, dst) != 0) {
+        err = errno;
+        what = dst;
+    }
+    if (err != 0) {
+        remove(tmp);
+        return log_msg(log, STATUS_ERROR, CAT, "copying %s to %s failed (%s: %s); nothing of it was kept", src, dst,
+                       what, strerror(err));
+    }
+    return STATUS_OK;
+}
+
+/* A restart's field file (rank 0): the run continues m->fields if it is
+ * there (the interrupted run's own, restarted with the same -o). A restart
+ * into another output starts it as a copy of the interrupted run's field
+ * file, which lies beside its checkpoint (P_checkpoint.h5: P_fields.h5) and
+ * is left as it is; without that file the new one starts empty, with a
+ * warning. *resume: 1 when m->fields is then there to continue. */
+status_t master_restart_fields(master_t *m, const char *checkpoint, int *resume)
+{
+    *resume = 1;
+    if (access(m->fields, F_OK) == 0) {
+        return STATUS_OK;
+    }
+    static const char suffix[] = "_checkpoint.h5";
+    const size_t len = strlen(checkpoint), ls = sizeof suffix - 1;
+    char orig[4200] = "";
+    if (len > ls && strcmp(checkpoint + len - ls, suffix) == 0) {
+        snprintf(orig, sizeof orig, "%.*s_fields.h5", (int)(len - ls), checkpoint);
+    }
+    if (orig[0] != '\0' && access(orig, R_OK) == 0) {
+        const status_t st = copy_file(orig, m->fields, &m->log);
+        if (st == STATUS_OK && !m->opt->quiet) {
+            printf("restart: the field file %s continues a copy of the interrupted run's %s\n", m->fields, orig);
+        }
+        return st;
+    }
+    *resume = 0;
+    if (orig[0] == '\0') {
+        return log_msg(&m->log, STATUS_WARNING, CAT,
+                       "%s is not named P_checkpoint.h5, so the interrupted run's field file (P_fields.h5) is not "
+                       "known; %s starts anew with the snapshots from the checkpoint on",
+                       checkpoint, m->fields);
+    }
+    return log_msg(&m->log, STATUS_WARNING, CAT,
+                   "the interrupted run's field file %s is not there; %s starts anew with the snapshots from the "
+                   "checkpoint on",
+                   orig, m->fields);
+}
+
 /* The worst status of all ranks: every rank takes the same branch after it. */
 status_t master_agree(master_t *m, status_t st)
 {

@@ -98,6 +98,47 @@ def test_signal_writes_checkpoint_and_exits(coupler, reference, tmp_path, sig, c
     assert_identical(reference["verlet"], out)
 
 
+def test_restart_into_another_output_continues_a_copy_of_the_fields(coupler, reference, tmp_path):
+    # a run stopped at step 400 (checkpoints every 120 steps, fields every 180) and continued to 700
+    # in another folder under another name: its output and field file equal the uninterrupted run's,
+    # and the first run's field file is left as it was
+    sets = ["--set", "run.field_interval=0.003"]
+    first = tmp_path / "first" / "run.h5"
+    first.parent.mkdir()
+    p = run("run", SCENE, "-o", first, "--steps", "400", "--quiet", "--checkpoint-every", EVERY, *sets)
+    assert p.returncode == 0, p.stderr
+    ckpt, old_fields = first.with_name("run_checkpoint.h5"), first.with_name("run_fields.h5")
+    with h5py.File(ckpt, "r") as f:
+        step = int(f.attrs["step"])
+    assert step == 360
+    before = old_fields.read_bytes()
+    moved = tmp_path / "second" / "continued.h5"
+    moved.parent.mkdir()
+    p = run("run", SCENE, "-o", moved, "--steps", STEPS, "--quiet", "--restart", ckpt, *sets)
+    assert p.returncode == 0, p.stderr
+    assert_identical(reference["verlet"], moved)
+    ref_fields = reference["verlet"].with_name("verlet_fields.h5")
+    assert_identical(ref_fields, moved.with_name("continued_fields.h5"))
+    assert old_fields.read_bytes() == before
+    with h5py.File(moved, "r") as f:  # the output links to its own field file
+        assert f.get("fields", getlink=True).filename == "continued_fields.h5"
+    # the interrupted run's field file gone: a warning names it, and the new field file holds the
+    # snapshots from the checkpoint on, each equal to the uninterrupted run's
+    old_fields.unlink()
+    again = tmp_path / "third" / "again.h5"
+    again.parent.mkdir()
+    p = run("run", SCENE, "-o", again, "--steps", STEPS, "--quiet", "--restart", ckpt, *sets)
+    assert p.returncode == 0, p.stderr
+    assert str(old_fields) in p.stderr and "starts anew" in p.stderr
+    assert_identical(reference["verlet"], again)
+    ref, new = datasets(ref_fields), datasets(again.with_name("again_fields.h5"))
+    later = sorted(n for n in new if int(n.split("/")[1]) > step)
+    assert later == sorted(n for n in ref if n.startswith("fields/") and int(n.split("/")[1]) > step)
+    assert len(later) > 0
+    for name in new:
+        assert np.array_equal(new[name], ref[name]), name
+
+
 @pytest.fixture(scope="module")
 def checkpoint(tmp_path_factory):
     """A finished short run with checkpoints, to try bad restarts on."""
