@@ -37,12 +37,14 @@ FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/kernel.c fluid/kernel_si
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
                rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \
                rigid/rigid_scene.c rigid/pairs.c rigid/lubrication.c rigid/contact_watch.c
+# the FMUs' models (their variable lists: the coupler exports them; the tests check them)
+MODEL_SRC   := common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 COUPLER_SRC := coupler/main.c coupler/mpi_env.c coupler/check_ranks.c coupler/bench.c coupler/run.c coupler/signals.c coupler/run_checkpoint.c coupler/fmu.c coupler/output.c coupler/export.c coupler/checkpoint.c coupler/summary.c coupler/resources.c \
-               common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
+               $(MODEL_SRC)
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_boundary.c tests/fluid/test_kernel.c tests/fluid/test_layouts.c tests/fluid/test_schedules.c \
                tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/drag_report.c tests/fluid/test_spheres.c \
                tests/fluid/approach_harness.c tests/fluid/test_wall_approach.c tests/common/test_scene.c \
-               tests/common/test_scene_bad.c tests/common/test_exact_sum.c tests/common/test_big_alloc.c \
+               tests/common/test_scene_bad.c tests/common/test_exact_sum.c tests/common/test_big_alloc.c tests/common/test_fmi_vars.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
                tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
                tests/rigid/test_input.c tests/rigid/test_lubrication.c tests/rigid/test_walls.c
@@ -67,7 +69,7 @@ $(BUILD)/obj/%.o: %.c
 $(BUILD)/coupler: $(LIB_OBJ) $(call obj,$(COUPLER_SRC))
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BUILD)/run_tests: $(LIB_OBJ) $(call obj,$(TEST_SRC))
+$(BUILD)/run_tests: $(LIB_OBJ) $(call obj,$(MODEL_SRC) $(TEST_SRC))
 	$(CC) $(CFLAGS) $^ -o $@ $(LDLIBS)
 
 $(BUILD)/h5fields_mpi: $(call obj,$(H5MPI_SRC))

@@ -109,7 +109,9 @@ enum { FMI_CAT_WARNING, FMI_CAT_DISCARD, FMI_CAT_ERROR, FMI_CAT_FATAL, FMI_CAT_I
 extern const char *const fmi_log_categories[FMI_NCATS][2]; /* name, description */
 
 /* Variable list helpers (common/fmi_vars.c). fmi_vars_add returns the new
- * variable (zeroed, component -1) or NULL when memory runs out. */
+ * variable (zeroed, component -1) or NULL when memory runs out. The pointer
+ * holds until the next add, which may move the list: fill each variable in
+ * before adding another. */
 fmi_var_t *fmi_vars_add(fmi_vars_t *vs, fmi_type_t type, fmi_causality_t causality, const char *unit,
                         const char *name_fmt, ...) __attribute__((format(printf, 5, 6)));
 void fmi_vars_free(fmi_vars_t *vs);

@@ -144,16 +144,21 @@ int fmi_scene_has_key(const char *text, const char *group, const char *key)
 
 int fmi_vars_add_drag(fmi_vars_t *vs, fmi_causality_t causality, int i, int what_t, int what_r)
 {
+    /* each filled in before the next is added: an add may move the list
+     * (realloc), and a pointer kept across it would write freed memory */
     fmi_var_t *zt = fmi_vars_add(vs, FMI_REAL, causality, "kg/s", "sphere[%d].drag_coefficient", i);
-    fmi_var_t *zr = zt != NULL ? fmi_vars_add(vs, FMI_REAL, causality, "kg.m2/s", "sphere[%d].rotational_drag_coefficient", i)
-                               : NULL;
-    if (zr == NULL) {
+    if (zt == NULL) {
         return 0;
     }
     snprintf(zt->description, sizeof zt->description, "-dF/dv of sphere %d's load (implicit coupling)", i);
-    snprintf(zr->description, sizeof zr->description, "-dT/dw of sphere %d's load (implicit coupling)", i);
     zt->what = what_t;
+    zt->index = i;
+    fmi_var_t *zr = fmi_vars_add(vs, FMI_REAL, causality, "kg.m2/s", "sphere[%d].rotational_drag_coefficient", i);
+    if (zr == NULL) {
+        return 0;
+    }
+    snprintf(zr->description, sizeof zr->description, "-dT/dw of sphere %d's load (implicit coupling)", i);
     zr->what = what_r;
-    zt->index = zr->index = i;
+    zr->index = i;
     return 1;
 }

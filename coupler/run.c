@@ -400,7 +400,10 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         st = output_restore_rows(out, opt->restart, "/output", restart.rows);
     }
     free(pairs);
-    if (st >= STATUS_ERROR) {
+    /* rank 0 alone opens the output: the others learn whether it could (a
+     * file held open by another process) instead of waiting for it in the
+     * first step */
+    if (master_agree(&m, st) >= STATUS_ERROR) {
         goto done;
     }
     if (opt->restart != NULL) {

@@ -206,20 +206,24 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
     snprintf(nb->description, sizeof nb->description, "number of moving bodies (changes on break-up and sticking)");
     nb->what = Q_NBODIES;
     for (int a = 0; a < 3; a++) {
+        /* each filled in before the next is added (an add may move the list) */
         fmi_var_t *p = fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, "kg.m/s", "rigid.momentum.%c", AXIS[a]);
-        fmi_var_t *l = p != NULL ? fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, "kg.m2/s", "rigid.angular_momentum.%c",
-                                                AXIS[a])
-                                 : NULL;
-        if (l == NULL) {
+        if (p == NULL) {
             st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
             goto done;
         }
         snprintf(p->description, sizeof p->description, "linear momentum of all moving bodies, %c component", AXIS[a]);
+        p->what = Q_MOMENTUM;
+        p->axis = a;
+        fmi_var_t *l = fmi_vars_add(&vs, FMI_REAL, FMI_OUTPUT, "kg.m2/s", "rigid.angular_momentum.%c", AXIS[a]);
+        if (l == NULL) {
+            st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
+            goto done;
+        }
         snprintf(l->description, sizeof l->description,
                  "angular momentum of all moving bodies about the origin, %c component", AXIS[a]);
-        p->what = Q_MOMENTUM;
         l->what = Q_ANGULAR_MOMENTUM;
-        p->axis = l->axis = a;
+        l->axis = a;
     }
 done:
     if (st != STATUS_OK) {

@@ -30,6 +30,7 @@ int main(int argc, char **argv)
     scene_bad_register_tests();
     exact_sum_register_tests();
     big_alloc_register_tests();
+    fmi_vars_register_tests();
     rigid_register_tests();
     CU_basic_set_mode(CU_BRM_VERBOSE);
     if (only != NULL) {

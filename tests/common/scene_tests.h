@@ -12,6 +12,8 @@ void scene_bad_register_tests(void);
 void exact_sum_register_tests(void);
 /* Adds the "big_alloc" suite (test_big_alloc.c: common/big_alloc.h). */
 void big_alloc_register_tests(void);
+/* Adds the "fmi_vars" suite (test_fmi_vars.c: the FMUs' variable lists). */
+void fmi_vars_register_tests(void);
 
 /* The base scene of the scene tests (26 lines, loads with STATUS_OK). */
 extern const char scene_test_base[];
