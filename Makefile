@@ -31,7 +31,7 @@ LDLIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsu
 SCENE    ?= models/sinking_sphere.yaml
 
 COMMON_SRC  := common/status.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
-               common/scene_build.c common/scene_check.c common/coupling.c common/big_alloc.c
+               common/scene_build.c common/scene_check.c common/coupling.c common/big_alloc.c common/file_held.c
 FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/kernel.c fluid/kernel_single.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
                fluid/spheres.c fluid/sphere_links.c fluid/sphere_fill.c fluid/state.c fluid/initial_profile.c fluid/fluid.c fluid/step.c fluid/diagnostics.c fluid/scan.c
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
@@ -51,7 +51,7 @@ TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattic
 
 # The field writer on its own with MPI, for tests/python/test_h5fields_mpi.py
 # (parallel HDF5: each process its block, the file the same as one writes).
-H5MPI_SRC   := tests/mpi/h5fields_mpi.c common/h5fields.c common/status.c
+H5MPI_SRC   := tests/mpi/h5fields_mpi.c common/h5fields.c common/status.c common/file_held.c
 
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))

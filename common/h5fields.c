@@ -20,6 +20,8 @@
  * still leave the others waiting in MPI; that is beyond this layer. */
 #include "h5fields.h"
 
+#include "file_held.h"
+
 #include <hdf5.h>
 #include <math.h>
 #include <mpi.h>
@@ -290,6 +292,21 @@ static status_t open_file(const char *path, const int n[3], double dx, const h5f
     st = agree_on(comm, log, path, set_up(w, path, n, dx, part, &fapl), "setting up the field writer");
     if (st == STATUS_OK && comm != MPI_COMM_NULL) {
         st = check_tiling(w); /* the same sum on every process */
+    }
+    if (st == STATUS_OK && !resume) {
+        /* asked first, by one process: HDF5's create would empty a file that
+         * another process holds open before finding its lock */
+        int rank = 0;
+        if (comm != MPI_COMM_NULL) {
+            MPI_Comm_rank(comm, &rank);
+        }
+        if (rank == 0 && file_held(path)) {
+            st = log_msg(log, STATUS_ERROR, "fields",
+                         "%s: another process holds the field file open (a viewer, or the ranks of a stopped run?); "
+                         "it was left as it is",
+                         path);
+        }
+        st = agree(w, st, "checking the field file");
     }
     if (st == STATUS_OK) {
         w->file = resume ? H5Fopen(path, H5F_ACC_RDWR, fapl) : H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);

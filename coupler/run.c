@@ -39,6 +39,8 @@
 #include "fmu.h"
 #include "master.h"
 #include "output.h"
+
+#include "../common/file_held.h"
 #include "resources.h"
 #include "summary.h"
 
@@ -102,6 +104,12 @@ static status_t check_writable(const char *path, const log_t *log)
     }
     if (access(path, F_OK) == 0 && access(path, W_OK) != 0) {
         return log_msg(log, STATUS_ERROR, CAT, "cannot write the output file %s: %s", path, strerror(errno));
+    }
+    if (file_held(path)) { /* before any file is written (HDF5 would empty it, then fail) */
+        return log_msg(log, STATUS_ERROR, CAT,
+                       "%s: another process holds this file open (a viewer, or the ranks of a stopped run?); nothing "
+                       "was written: close it there or choose another -o",
+                       path);
     }
     return STATUS_OK;
 }

@@ -191,6 +191,26 @@ def test_unwritable_output(coupler, tmp_path):
     assert p.returncode == 1 and "dir.h5" in p.stderr
 
 
+@pytest.mark.parametrize("held", ["output", "fields"])
+def test_output_held_open_elsewhere_is_left_as_it_is(coupler, tmp_path, held):
+    # HDF5's create (H5F_ACC_TRUNC) empties a file before it finds that another process holds
+    # it open: a run into an output or field file open in a viewer lost that file's content.
+    # Now the run stops before it writes anything, with exit 1 and the file named, and both
+    # files keep every byte.
+    out = tmp_path / "run.h5"
+    fields = tmp_path / "run_fields.h5"
+    for path in (out, fields):
+        with h5py.File(path, "w") as f:
+            f["kept"] = np.arange(5.0)
+    before = {p: p.read_bytes() for p in (out, fields)}
+    target = out if held == "output" else fields
+    with h5py.File(target, "r"):
+        p = run("run", MODELS / "channel_poiseuille.yaml", "-o", out, "--steps", "2", "--set", "run.fields=true")
+    assert p.returncode == 1, p.stderr
+    assert str(target) in p.stderr and "another process holds" in p.stderr
+    assert all(path.read_bytes() == b for path, b in before.items())  # nothing written to either
+
+
 def test_bench_json(coupler):
     import json
     p = run("bench", "--size", "24", "--json")

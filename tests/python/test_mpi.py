@@ -195,6 +195,24 @@ def test_bad_rank_counts_are_refused(tmp_path):
 
 
 
+def test_output_held_by_another_process_stops_all_ranks(tmp_path):
+    """Rank 0 alone creates the output: when it cannot (the file is held open by
+    another process, e.g. ranks of a killed mpirun still running), every rank
+    stops with exit 1 and the file is left as it was. (The other ranks waited
+    forever in the first step before, and HDF5's create had emptied the file.)"""
+    scene = tmp_path / "box.yaml"
+    scene.write_text(box(PERIODIC_X, end=0.01))
+    out = tmp_path / "held.h5"
+    with h5py.File(out, "w") as f:
+        f["x"] = np.arange(3.0)
+    before = out.read_bytes()
+    with h5py.File(out, "r"):  # held open: HDF5's file lock refuses rank 0's create
+        r = run_coupler(2, "run", str(scene), "-o", str(out), "--quiet", timeout=120)
+    assert r.returncode == 1, r.stderr[-2000:]
+    assert "another process holds this file open" in r.stderr
+    assert out.read_bytes() == before
+
+
 @pytest.mark.parametrize("ranks", ["[2, 1, 1]", "[2, 2, 1]", "[1, 1, 4]", "[4, 1, 1]"])
 def test_sphere_settles_across_rank_boundaries(tmp_path, ranks):
     """A free sphere (radius 4.5 cells, density ratio 2) settles from rest
