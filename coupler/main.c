@@ -169,7 +169,7 @@ static int cmd_check(const scene_t *s, int world, const log_t *log)
     }
     printf("  steps              %ld to t = %.6g s\n", a.steps, s->run.end_time);
     const double interior = (double)u.n[0] * u.n[1] * u.n[2];
-    printf("  memory             %.4g MB (fluid.streaming %s: %.0f bytes per allocated cell, %.1f per interior cell "
+    printf("  memory             %.4g MB (fluid.streaming %s: %.1f bytes per allocated cell, %.1f per interior cell "
            "with the ghost layers)\n",
            a.bytes / 1e6, s->fluid.streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place", units_bytes_per_cell(s),
            a.bytes / interior);

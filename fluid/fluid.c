@@ -185,7 +185,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
         fl->f[k] = alloc_populations(&fl->g, fluid_value_bytes(fl));
         have = have && fl->f[k] != NULL;
     }
-    fl->flags = calloc(fl->g.ncells, 1);
+    fl->flags = calloc(cellflags_bytes(fl->g.ncells), 1);
     if (fl->path == NULL || !have || fl->flags == NULL) {
         log_msg(log, STATUS_ERROR, "fluid",
                 "%s: out of memory for the populations and flags of %d x %d x %d cells (%.4g GB: %d array(s) of "
@@ -206,7 +206,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
                         ghost = ghost || !decomp_exchanged(&fl->d, a, X[a] < 1 ? 0 : 1);
                     }
                 }
-                fl->flags[grid_index(&fl->g, x, y, z)] = ghost ? CELL_GHOST : CELL_FLUID;
+                cellflags_set(fl->flags, grid_index(&fl->g, x, y, z), ghost ? CELL_GHOST : CELL_FLUID);
             }
         }
     }
@@ -440,7 +440,7 @@ void fluid_decomposition(const fluid_t *fl, fluid_decomposition_t *out)
 size_t fluid_memory_bytes(const fluid_t *fl)
 {
     return (size_t)fluid_arrays(fl) * (size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl) +
-           fl->g.ncells + fl->walls.nlinks * sizeof(ghost_link_t) + fl->walls.ncopies * sizeof(copy_link_t) +
+           cellflags_bytes(fl->g.ncells) + fl->walls.nlinks * sizeof(ghost_link_t) + fl->walls.ncopies * sizeof(copy_link_t) +
            sizeof *fl;
 }
 
@@ -462,7 +462,7 @@ void fluid_moments_lattice_planes(fluid_t *fl, int z0, int nz, double *rho, doub
                 const size_t o = (size_t)x + (size_t)nx * ((size_t)y + (size_t)ny * (size_t)z);
                 const size_t i = grid_index(g, x + 1, y + 1, z0 + z + 1);
                 double r = 0.0, v[3] = {0.0, 0.0, 0.0};
-                if (fl->flags[i] == CELL_FLUID) {
+                if (cellflags_get(fl->flags, i) == CELL_FLUID) {
                     fluid_local_moments(fl, f, i, &r, v);
                 }
                 if (rho != NULL) {
@@ -512,7 +512,7 @@ void fluid_flags_planes(const fluid_t *fl, int z0, int nz, unsigned char *flags)
         for (int y = 0; y < ny; y++) {
             for (int x = 0; x < nx; x++) {
                 flags[(size_t)x + (size_t)nx * ((size_t)y + (size_t)ny * (size_t)z)] =
-                    fl->flags[grid_index(g, x + 1, y + 1, z0 + z + 1)];
+                    (unsigned char)cellflags_get(fl->flags, grid_index(g, x + 1, y + 1, z0 + z + 1));
             }
         }
     }
@@ -538,7 +538,7 @@ void fluid_totals_lattice(fluid_t *fl, double *mass, double momentum[3])
             for (int y = 1; y <= g->n[1]; y++) {
                 for (int x = 1; x <= g->n[0]; x++) {
                     const size_t i = grid_index(g, x, y, z);
-                    if (fl->flags[i] != CELL_FLUID) {
+                    if (cellflags_get(fl->flags, i) != CELL_FLUID) {
                         continue;
                     }
                     for (int q = 0; q < LB_Q; q++) {

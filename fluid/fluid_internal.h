@@ -47,7 +47,7 @@ struct fluid {
     int cur;
     streaming_t streaming;
     layout_state_t layout; /* of f[cur] (layout.h) */
-    uint8_t *flags;
+    uint8_t *flags; /* two cells to a byte: cellflags_get / cellflags_set (cellflags.h) */
     walls_t walls;
     spheres_t spheres;
     sphere_overlap_t sov;

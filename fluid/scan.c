@@ -110,7 +110,7 @@ static inline __attribute__((always_inline)) void row_in_trouble(const fluid_t *
     span_moments(pl, first, nx, rho, jx, jy, jz);
     for (int x = 0; x < nx; x++) {
         const size_t i = first + (size_t)x;
-        if (fl->flags[i] != CELL_FLUID) {
+        if (cellflags_get(fl->flags, i) != CELL_FLUID) {
             rho[x] = jx[x] = jy[x] = jz[x] = en[x] = 0.0;
             continue;
         }
@@ -139,7 +139,7 @@ static inline __attribute__((always_inline)) void row_in_trouble(const fluid_t *
 }
 
 /* One z plane, with the layout state and precision known at compile time
- * (one copy per combination below); buf: SCAN_ROW x scan_span doubles. */
+ * (one copy per combination below); buf: scan_buffer_bytes (scan.h). */
 static inline __attribute__((always_inline)) void scan_plane(const fluid_t *fl, const pops_t *p0, int z, xsum_t *xs,
                                                              double *v, double umax2, double *buf, int totals,
                                                              layout_state_t state, int single)
@@ -157,9 +157,14 @@ static inline __attribute__((always_inline)) void scan_plane(const fluid_t *fl, 
         const size_t first = grid_index(g, 1, y0, z);
         const int span = (nr - 1) * sx + nx;
         span_moments(&pl, first, span, rho, jx, jy, jz);
+        /* the span's flags, a byte each (cellflags.h packs two to a byte) */
+        uint8_t *const flags = (uint8_t *)(buf + SCAN_ROW * cap);
+        for (int b = 0; b < span; b++) {
+            flags[b] = (uint8_t)cellflags_get(fl->flags, first + (size_t)b);
+        }
         for (int r = 0; r < nr; r++) {
             const int b0 = r * sx;
-            const uint8_t *flag = fl->flags + first + (size_t)b0;
+            const uint8_t *flag = flags + b0;
             /* the row without branches: u = (j - F/2) / rho as the collision
              * used it (Guo), the terms of the fluid cells (zero elsewhere),
              * and whether a fluid cell is in trouble (a non-finite or

@@ -29,8 +29,9 @@ static inline size_t scan_span(const grid_t *g)
     return (size_t)(SCAN_CHUNK - 1) * (size_t)g->s[0] + (size_t)g->n[0];
 }
 
-/* The buffer of each thread of a scan. */
-static inline size_t scan_buffer_bytes(const grid_t *g) { return SCAN_ROW * scan_span(g) * sizeof(double); }
+/* The buffer of each thread of a scan: SCAN_ROW arrays of a span's doubles,
+ * and the span's flags unpacked to a byte each. */
+static inline size_t scan_buffer_bytes(const grid_t *g) { return SCAN_ROW * scan_span(g) * sizeof(double) + scan_span(g); }
 
 /* Numerical trouble in one fluid cell, worst first (the order in which a
  * scan reports them): a density that is not a finite number (the lattice has

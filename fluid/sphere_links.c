@@ -28,7 +28,7 @@ static inline __attribute__((always_inline)) int fluid_at(spheres_t *sp, const g
     uint8_t flag;
     if (deep) {
         *out = (size_t)((ptrdiff_t)i - k * off_q);
-        flag = flags[*out];
+        flag = (uint8_t)cellflags_get(flags, *out);
     } else {
         const int Z[3] = {X[0] - k * lb_c[q][0], X[1] - k * lb_c[q][1], X[2] - k * lb_c[q][2]};
         if (!spheres_cell(sp, g, flags, Z, out, &flag)) {
@@ -416,7 +416,7 @@ static int refresh_cell(spheres_t *sp, const uint8_t *flags, int k, others_t *o,
             return 0;
         }
         if (full) {
-            l->fresh = (flags[l->xf] & FLAG_FRESH) != 0;
+            l->fresh = (cellflags_get(flags, l->xf) & FLAG_FRESH) != 0;
             *fresh_set |= l->fresh;
             l->film = link_film(sp, k, l->q, dk, delta, o);
         }
@@ -523,7 +523,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     continue; /* beyond a wall, or another rank's cell: its links are built there */
                 }
                 const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
-                if ((flags[i] & ~FLAG_FRESH) != 0) {
+                if ((cellflags_get(flags, i) & ~(unsigned)FLAG_FRESH) != 0) {
                     continue; /* solid or ghost */
                 }
                 int inner = 1, deep = 1; /* all neighbours (and theirs) inside the grid: no wrap needed */
@@ -536,7 +536,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                 uint32_t solid = 0;
                 if (inner) {
                     for (int q = 1; q < LB_Q; q++) {
-                        solid |= (uint32_t)((flags[(size_t)((ptrdiff_t)i + off[q])] & FLAG_SOLID) != 0) << q;
+                        solid |= (uint32_t)((cellflags_get(flags, (size_t)((ptrdiff_t)i + off[q])) & FLAG_SOLID) != 0)
+                                 << q;
                     }
                 } else {
                     for (int q = 1; q < LB_Q; q++) {
@@ -547,7 +548,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                         /* a neighbour: in the block or its ghost layer, whose
                          * flags mark_sphere set as the owner's */
                         if (spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W)) {
-                            solid |= (uint32_t)((flags[grid_index(g, W[0], W[1], W[2])] & FLAG_SOLID) != 0) << q;
+                            solid |= (uint32_t)((cellflags_get(flags, grid_index(g, W[0], W[1], W[2])) & FLAG_SOLID) != 0)
+                                     << q;
                         }
                     }
                 }
@@ -592,7 +594,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                      * pre-collision ones, and its links go without the multireflection
                      * correction for this one step (with it, a moving sphere's drag
                      * fluctuated 16 times more) */
-                    l->fresh = (flags[i] & FLAG_FRESH) != 0;
+                    l->fresh = (cellflags_get(flags, i) & FLAG_FRESH) != 0;
                     /* written after the exchange: a cell of an outer row (fluid.c step_overlapped) */
                     l->outer = Y[1] < 2 || Y[1] > g->n[1] - 1 || Y[2] < 2 || Y[2] > g->n[2] - 1;
                     const int have_ff = fluid_at(sp, g, flags, Y, deep, i, off[q], q, 1, &l->xff);
@@ -663,8 +665,8 @@ static int handovers_found(spheres_t *sp, const grid_t *g, const uint8_t *flags,
                 !spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W)) {
                 return 0;
             }
-            if ((flags[grid_index(g, Y[0], Y[1], Y[2])] & ~FLAG_FRESH) != 0 ||
-                (flags[grid_index(g, W[0], W[1], W[2])] & FLAG_SOLID) == 0) {
+            if ((cellflags_get(flags, grid_index(g, Y[0], Y[1], Y[2])) & ~(unsigned)FLAG_FRESH) != 0 ||
+                (cellflags_get(flags, grid_index(g, W[0], W[1], W[2])) & FLAG_SOLID) == 0) {
                 continue; /* no link there any more */
             }
             int found = 0;

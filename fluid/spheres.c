@@ -80,7 +80,7 @@ int spheres_cell_beyond(spheres_t *sp, const grid_t *g, const uint8_t *flags, co
     const int where = spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, X, Z);
     if (where == 1) {
         *ref = grid_index(g, Z[0], Z[1], Z[2]);
-        *flag = flags[*ref];
+        *flag = (uint8_t)cellflags_get(flags, *ref);
         return 1;
     }
     if (where == 2) {
@@ -316,8 +316,7 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
                 }
                 const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
                 list->inside[list->ninside++] = i;
-#pragma omp atomic update
-                flags[i] |= FLAG_MARK;
+                cellflags_or_atomic(flags, i, FLAG_MARK);
             }
         }
     }
@@ -465,7 +464,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
     sp->nfresh = 0;
     for (size_t j = 0; j < sp->nsolid; j++) {
         const size_t i = sp->solid[j];
-        if (flags[i] & FLAG_MARK) {
+        if (cellflags_get(flags, i) & FLAG_MARK) {
             continue;
         }
         int Xu[3];
@@ -474,7 +473,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
             keep = 0; /* out of memory for the list: all lists built anew */
         }
         if (!grid_is_interior(g, Xu[0], Xu[1], Xu[2])) {
-            flags[i] = 0; /* a ghost cell of another rank's fluid: its owner refills it */
+            cellflags_set(flags, i, 0); /* a ghost cell of another rank's fluid: its owner refills it */
             continue;
         }
         if (!spheres_grow((void **)&sp->fresh, &sp->cap_fresh, sp->nfresh + 1, sizeof *sp->fresh)) {
@@ -482,7 +481,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
                            sp->nsolid + sp->nfresh + 1);
         }
         sp->fresh[sp->nfresh++] = i;
-        flags[i] = FLAG_FRESH;
+        cellflags_set(flags, i, FLAG_FRESH);
     }
     /* covered: marked now, fluid before; the new solid list, sphere by
      * sphere (a cell inside two goes with the first) */
@@ -499,11 +498,12 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         const link_list_t *list = &sp->lists[k];
         for (size_t j = 0; j < list->ninside; j++) {
             const size_t i = list->inside[j];
-            if (!(flags[i] & FLAG_MARK)) {
+            const unsigned fi = cellflags_get(flags, i);
+            if (!(fi & FLAG_MARK)) {
                 continue; /* already handled through another sphere */
             }
-            const int was_solid = flags[i] & FLAG_SOLID;
-            flags[i] = FLAG_SOLID;
+            const int was_solid = fi & FLAG_SOLID;
+            cellflags_set(flags, i, FLAG_SOLID);
             sp->solid[sp->nsolid++] = i;
             if (was_solid || sp->first) {
                 continue; /* most cells: solid before (and cell_coords divides) */
@@ -564,7 +564,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
      * them, marked as fresh on their links: sphere_links) */
     status_t st = spheres_build_links(sp, g, flags, keep, log);
     for (size_t j = 0; j < sp->nfresh; j++) {
-        flags[sp->fresh[j]] = 0;
+        cellflags_set(flags, sp->fresh[j], 0);
     }
     if (sp->halo.misses > 0) {
         st = log_msg(log, STATUS_ERROR, "fluid",

@@ -22,6 +22,7 @@
 #include "../common/exact_sum.h"
 #include "../common/scene.h"
 #include "boundary.h"
+#include "cellflags.h"
 #include "decomp.h"
 #include "grid.h"
 #include "layout.h"
@@ -54,8 +55,9 @@ typedef struct {
 } sphere_t;
 
 /* Cell flags of the sphere stage (CELL_FLUID 0, CELL_SOLID 1, CELL_GHOST 2
- * of fluid_internal.h, and two bits of its own). */
-enum { FLAG_SOLID = 1, FLAG_GHOST = 2, FLAG_MARK = 4, FLAG_FRESH = 16 };
+ * of fluid_internal.h, and two bits of its own): four bits, packed two cells
+ * to a byte in the grid's flags (cellflags.h). */
+enum { FLAG_SOLID = 1, FLAG_GHOST = 2, FLAG_MARK = 4, FLAG_FRESH = 8 };
 
 /* A cell the sphere stage reads: an index of the block's grid, or on
  * several ranks SPHERE_EXT + k, cell k of the sphere halo (sphere_halo.c):
@@ -255,7 +257,7 @@ static inline int spheres_cell(spheres_t *sp, const grid_t *g, const uint8_t *fl
 {
     if (Y[0] >= 1 && Y[0] <= sp->nb[0] && Y[1] >= 1 && Y[1] <= sp->nb[1] && Y[2] >= 1 && Y[2] <= sp->nb[2]) {
         *ref = grid_index(g, Y[0], Y[1], Y[2]); /* a cell of the block: what spheres_locate gives */
-        *flag = flags[*ref];
+        *flag = (uint8_t)cellflags_get(flags, *ref);
         return 1;
     }
     return spheres_cell_beyond(sp, g, flags, Y, ref, flag);

@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define STATE_MAGIC 0x464c5549444c4233ull /* "FLUIDLB3" */
+#define STATE_MAGIC 0x464c5549444c4234ull /* "FLUIDLB4": the cell flags two to a byte (cellflags.h) */
 
 typedef struct {
     uint64_t magic;
@@ -33,7 +33,7 @@ typedef struct {
 
 size_t fluid_state_size(const fluid_t *fl)
 {
-    return sizeof(state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.stride * fluid_value_bytes(fl) + fl->g.ncells +
+    return sizeof(state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.stride * fluid_value_bytes(fl) + cellflags_bytes(fl->g.ncells) +
            (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t) +
            spheres_pairs_bytes(&fl->spheres);
 }
@@ -68,8 +68,8 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
         memcpy(p, fl->f[k == 0 ? fl->cur : 1 - fl->cur], fbytes);
         p += fbytes;
     }
-    memcpy(p, fl->flags, fl->g.ncells);
-    p += fl->g.ncells;
+    memcpy(p, fl->flags, cellflags_bytes(fl->g.ncells));
+    p += cellflags_bytes(fl->g.ncells);
     if (fl->spheres.n > 0) {
         memcpy(p, fl->spheres.s, (size_t)fl->spheres.n * sizeof(sphere_t));
         p += (size_t)fl->spheres.n * sizeof(sphere_t);
@@ -102,7 +102,7 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "the state names layout state %d (0 to 2 expected)", h.layout);
     }
     const size_t fbytes = (size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl);
-    const size_t need = sizeof h + (size_t)fluid_arrays(fl) * fbytes + fl->g.ncells + (size_t)h.nspheres * sizeof(sphere_t) +
+    const size_t need = sizeof h + (size_t)fluid_arrays(fl) * fbytes + cellflags_bytes(fl->g.ncells) + (size_t)h.nspheres * sizeof(sphere_t) +
                         (size_t)h.nsolid * sizeof(size_t);
     if (size < need) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "state of %zu bytes is shorter than its %zu bytes", size,
@@ -129,8 +129,8 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
         p += fbytes;
     }
     fl->layout = (layout_state_t)h.layout;
-    memcpy(fl->flags, p, fl->g.ncells);
-    p += fl->g.ncells;
+    memcpy(fl->flags, p, cellflags_bytes(fl->g.ncells));
+    p += cellflags_bytes(fl->g.ncells);
     if (h.nspheres > 0) {
         memcpy(fl->spheres.s, p, (size_t)h.nspheres * sizeof(sphere_t));
         p += (size_t)h.nspheres * sizeof(sphere_t);

@@ -48,7 +48,7 @@ double units_bytes_per_cell(const scene_t *s)
 {
     const double arrays = s->fluid.streaming == STREAMING_TWO_ARRAY ? 2.0 : 1.0;
     const double bytes = s->fluid.precision == PRECISION_SINGLE ? sizeof(float) : sizeof(double);
-    return arrays * LB_Q * bytes + 1.0;
+    return arrays * LB_Q * bytes + 0.5; /* and the flags, two cells to a byte (cellflags.h) */
 }
 
 int units_grid_align(const scene_t *s) { return s->fluid.streaming == STREAMING_TWO_ARRAY ? GRID_ALIGN : 1; }

@@ -8,6 +8,7 @@
  * parallel. */
 #include "walls.h"
 
+#include "cellflags.h"
 #include "lattice.h"
 
 #include <math.h>
@@ -478,7 +479,7 @@ static inline __attribute__((always_inline)) void prepare_links(const walls_t *w
                 last_axis = l->axis;
                 const size_t c2 = l->cell2, c3 = 2 * l->cell2 - l->cell;
                 uk_last[0] = uk_last[1] = uk_last[2] = 0.0;
-                if (w->flags == NULL || (w->flags[c2] == 0 && w->flags[c3] == 0)) {
+                if (w->flags == NULL || (cellflags_get(w->flags, c2) == 0 && cellflags_get(w->flags, c3) == 0)) {
                     double r2, r3, u2[3], u3[3];
                     moments(p, c2, &r2, u2);
                     moments(p, c3, &r3, u3);

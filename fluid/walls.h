@@ -74,7 +74,7 @@ typedef struct {
     size_t nlinks_early, ncopies_early; /* the first ones: cells in inner rows (walls_links) */
     int periodic[3];     /* periodic axes with one rank: filled by a copy of the ghost layers, no list (walls.c) */
     double kappa;        /* the slip correction of no-slip and moving walls (above); 0 without */
-    const uint8_t *flags; /* the cell flags (fluid.c): the correction reads fluid cells only */
+    const uint8_t *flags; /* the cell flags (fluid.c, cellflags.h): the correction reads fluid cells only */
     decomp_t *d;         /* the block (not owned): faces to other ranks are filled by its exchange */
 } walls_t;
 

@@ -116,7 +116,7 @@ static void check_links(scene_t *s)
     for (int z = 1; z <= g->n[2]; z++) {
         for (int y = 1; y <= g->n[1]; y++) {
             for (int x = 1; x <= g->n[0]; x++) {
-                if (fl->flags[grid_index(g, x, y, z)] != CELL_FLUID) {
+                if (cellflags_get(fl->flags, grid_index(g, x, y, z)) != CELL_FLUID) {
                     continue;
                 }
                 for (int q = 1; q < LB_Q; q++) {
@@ -129,7 +129,7 @@ static void check_links(scene_t *s)
                             B[a] = (B[a] - 1 + g->n[a]) % g->n[a] + 1;
                         }
                     }
-                    pairs += !out && fl->flags[grid_index(g, B[0], B[1], B[2])] == CELL_SOLID;
+                    pairs += !out && cellflags_get(fl->flags, grid_index(g, B[0], B[1], B[2])) == CELL_SOLID;
                 }
             }
         }
@@ -257,11 +257,11 @@ static void test_links_refreshed_as_built(void)
         }
         /* with the map's flags: its uncovered cells marked fresh, as they were */
         for (size_t j = 0; j < sp->nfresh; j++) {
-            fl->flags[sp->fresh[j]] = FLAG_FRESH;
+            cellflags_set(fl->flags, sp->fresh[j], FLAG_FRESH);
         }
         CU_ASSERT_EQUAL(spheres_build_links(sp, &fl->g, fl->flags, 0, &fl->log), STATUS_OK);
         for (size_t j = 0; j < sp->nfresh; j++) {
-            fl->flags[sp->fresh[j]] = 0;
+            cellflags_set(fl->flags, sp->fresh[j], 0);
         }
         for (int k = 0; k < sp->n; k++) {
             CU_ASSERT_EQUAL(sp->lists[k].n, n[k]);
