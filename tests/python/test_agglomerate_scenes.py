@@ -38,9 +38,12 @@ EVERY_STEP = ("--set", "run.output_interval=1e-9")   # a row per communication s
 COLLISION_GAP = 0.15   # radii of x travel left before the two agglomerates touch (short collision)
 # Short break-up: the shear starts developed (plane_channel), whose first step loads the necks
 # with up to 3.4e-7 N (the agglomerate at rest is put at once into the moving fluid: the
-# sudden no-slip condition, an impulsive start); with limits of 2e-7 N the two most loaded necks
-# break in the first step (1 -> 3 bodies), the other seven hold (measured).
-BREAKUP_SHORT_LIMIT = 2e-7
+# sudden no-slip condition, an impulsive start). Force averaging delivers half of it in the first
+# step (the load before the start counts as zero, so that the delivered loads add up to the
+# exchanged ones) and the mean of the first two in the second: necks up to 1.71e-7 N, then
+# 1.86e-7 N (measured, all limits at 1 N). With limits of 1.2e-7 N the most loaded necks break
+# in the first steps.
+BREAKUP_SHORT_LIMIT = 1.2e-7
 
 
 def _run(tmp_path, scene, *args, timeout=None):
