@@ -54,6 +54,8 @@ struct h5fields {
 
 /* The datasets of a snapshot: name, values per cell, HDF5 type. */
 static const char *const FIELD_NAMES[3] = {"density", "velocity", "flags"};
+/* their `unit` attributes, as every dataset of the output has one */
+static const char *const FIELD_UNITS[3] = {"kg/m^3", "m/s", "0 fluid, 1 solid"};
 static const int FIELD_COMPS[3] = {1, 3, 1};
 static hid_t field_type(int k) { return k == 2 ? H5T_NATIVE_UCHAR : H5T_NATIVE_DOUBLE; }
 
@@ -367,6 +369,25 @@ static status_t create_one(h5fields_t *w, int k)
     }
     if (space >= 0) {
         H5Sclose(space);
+    }
+    if (st == STATUS_OK) {
+        /* the unit (every process writes the same value: HDF5 requires it) */
+        hid_t type = H5Tcopy(H5T_C_S1), scalar = H5Screate(H5S_SCALAR), a = -1;
+        int ok = type >= 0 && scalar >= 0 && H5Tset_size(type, strlen(FIELD_UNITS[k]) + 1) >= 0;
+        if (ok) {
+            a = H5Acreate2(w->dset[k], "unit", type, scalar, H5P_DEFAULT, H5P_DEFAULT);
+            ok = a >= 0 && H5Awrite(a, type, FIELD_UNITS[k]) >= 0;
+        }
+        if (a >= 0) {
+            H5Aclose(a);
+        }
+        if (scalar >= 0) {
+            H5Sclose(scalar);
+        }
+        if (type >= 0) {
+            H5Tclose(type);
+        }
+        st = agree(w, ok ? STATUS_OK : fail(w, what), what);
     }
     return st;
 }

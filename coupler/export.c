@@ -81,6 +81,13 @@ static int attr_num(xmlNodePtr node, const char *name, double x)
     return attr(node, name, fmt_num(x, buf, sizeof buf));
 }
 
+/* The DefaultExperiment's stop: run.end_time rounded up to whole LBM steps
+ * (coupler/run.c's count of steps with one LBM step per communication step). */
+static double default_stop(const scene_t *s)
+{
+    return ceil(s->run.end_time / s->fluid.dt - 1e-9) * s->fluid.dt;
+}
+
 static xmlNodePtr child(xmlNodePtr parent, const char *name)
 {
     return xmlNewChild(parent, NULL, BAD_CAST name, NULL);
@@ -238,9 +245,12 @@ static int build_description(const scene_t *s, fmu_job_t *job)
         }
     }
     /* one LBM time step is the natural communication step of both FMUs; a
-     * whole number of ns for every scene that gives tau (common/scene.h) */
+     * whole number of ns for every scene that gives tau (common/scene.h). The
+     * stop is run.end_time rounded up to whole steps, as `coupler run` runs
+     * it: a master that steps from start to stop by the step size (fmpy's
+     * simulate_fmu) then never asks the fluid for a fraction of an LBM step */
     xmlNodePtr ex = child(root, "DefaultExperiment");
-    if (ex == NULL || !attr(ex, "startTime", "0") || !attr_num(ex, "stopTime", s->run.end_time) ||
+    if (ex == NULL || !attr(ex, "startTime", "0") || !attr_num(ex, "stopTime", default_stop(s)) ||
         !attr_num(ex, "stepSize", s->fluid.dt)) {
         goto done;
     }
@@ -333,7 +343,7 @@ static int build_documentation(const scene_t *s, fmu_job_t *job)
                "fluid and the rigid FMU of one scene are coupled by connecting every input to the output of "
                "the other FMU with the same name; all values are SI.</p>\n<h2>Step</h2>\n<p>DefaultExperiment: "
                "start 0, stop %s s, step size %s s",
-            fmt_num(s->run.end_time, num, sizeof num), fmt_num(s->fluid.dt, num2, sizeof num2));
+            fmt_num(default_stop(s), num, sizeof num), fmt_num(s->fluid.dt, num2, sizeof num2));
     long long ns;
     if (scene_whole_ns(s->fluid.dt, &ns)) {
         fprintf(f, " = %lld ns, one LBM time step: a whole number of nanoseconds, so masters that count time "

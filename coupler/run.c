@@ -408,6 +408,11 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         st = output_restore_rows(out, opt->restart, "/output", restart.rows);
     }
     free(pairs);
+    /* what the run is, from the start: a run that fails keeps it too */
+    if (st < STATUS_ERROR) {
+        st = status_worst(st, output_attr(out, "exchange_every", k_lbm));
+        st = status_worst(st, output_attr(out, "communication_step", h));
+    }
     /* rank 0 alone opens the output: the others learn whether it could (a
      * file held open by another process) instead of waiting for it in the
      * first step */
@@ -594,8 +599,6 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     st = status_worst(st, output_attr(out, "wall_time_output", wout));
     st = status_worst(st, output_attr(out, "wall_time_startup", wstart));
     st = status_worst(st, output_attr(out, "wall_time_total", wall));
-    st = status_worst(st, output_attr(out, "exchange_every", k_lbm));
-    st = status_worst(st, output_attr(out, "communication_step", h));
     st = status_worst(st, output_attr(out, "mlups", mlups));
     st = status_worst(st, output_attr(out, "peak_rss_bytes", 1024.0 * (double)rss_kb));
     st = status_worst(st, output_attr_string(out, "fmi_calls_fluid", jf));

@@ -85,9 +85,11 @@ def test_fields_and_xdmf(coupler, tmp_path):
     assert files == {"cavity_fields.h5"}
     items = [d.text.split(":")[1] for d in root.iter("DataItem") if d.get("Format") == "HDF"]
     assert len(items) == 3 * 3  # t = 0, 0.01, 0.02: density, velocity, flags
+    units = {"density": b"kg/m^3", "velocity": b"m/s", "flags": b"0 fluid, 1 solid"}
     with h5py.File(out, "r") as f:
         for path in items:
             assert path in f
+            assert f[path].attrs["unit"] == units[path.rsplit("/", 1)[1]], path  # as every dataset
         v = f[items[-2]][:]
         assert v.shape == (20, 20, 20, 3)
         # the lid drives +x flow in the top layer, return flow below

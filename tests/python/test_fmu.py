@@ -280,7 +280,8 @@ def test_fmu_carries_documentation_and_a_whole_ns_default_step(coupler, tmp_path
         assert h * 1e9 == pytest.approx(round(h * 1e9), abs=1e-6) and round(h * 1e9) == 16667
         exact = (scene["tau"] - 0.5) * scene["dx"] ** 2 / (3 * scene["viscosity"])
         assert abs(h - exact) <= 0.5e-9
-        assert float(ex.get("stopTime")) == 0.06 and float(ex.get("startTime")) == 0.0
+        # run.end_time 0.06 s is 3599.93 steps: the stop is 3600 whole steps, as coupler run runs it
+        assert float(ex.get("stopTime")) == pytest.approx(3600 * h, rel=1e-15) and float(ex.get("startTime")) == 0.0
         assert root.get("version") and "coupler export" in root.get("generationTool")
         with zipfile.ZipFile(d / f"{name}.fmu") as z:
             html = z.read("documentation/index.html").decode()
@@ -311,6 +312,17 @@ def test_rigid_alone_falls_freely(fmus, which):
                           start_values={**tight, "rigid.gravity.z": -2.0, "fluid.density": 500.0})
     np.testing.assert_allclose(Z0 - r["sphere[0].position.z"], 0.5 * 2.0 * (1 - 500 / RHO_P) * r["time"] ** 2,
                                rtol=1e-6, atol=1e-15)
+
+
+def test_fluid_fmu_runs_its_own_default_experiment(tmp_path):
+    """fmpy.simulate_fmu with nothing but the FMU: its DefaultExperiment's stop is run.end_time
+    rounded up to whole LBM steps (2.05e-4 s is 20.5 steps: 21), so the last step is a whole
+    LBM step too (with stop = end_time the fluid refused a last step of h/dt = 0.5)."""
+    d, _ = export(tmp_path, "own", SCENE.format(motion="\n    motion: fixed"), "run.end_time=2.05e-4")
+    r = fmpy.simulate_fmu(str(d / "fluid.fmu"))
+    assert r["time"][-1] == pytest.approx(21 * DT, rel=1e-12)
+    assert np.all(np.diff(r["time"]) == pytest.approx(DT, rel=1e-9))
+    assert np.all(np.isfinite(r["sphere[0].force.z"]))
 
 
 def test_fluid_alone_sphere_held_by_inputs(fmus):
