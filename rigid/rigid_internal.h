@@ -39,7 +39,7 @@ typedef struct {
     double held_f[3], held_t[3]; /* load used in the previous step */
     double drag_t, drag_r;       /* implicit coupling: -dF/dv (kg/s), -dT/dw (kg m^2/s) of the load */
     double imp_f[3], imp_t[3];   /* implicit coupling: load correction of the current step */
-    double pred_f[3], pred_t[3]; /* of it the drag response to the predicted change, paid back in the next step */
+    double debt_f[3], debt_t[3]; /* implicit coupling: the corrections not yet paid back (implicit.c) */
 } rigid_sphere_t;
 
 typedef struct {

@@ -15,7 +15,7 @@
 #include <string.h>
 
 #define RIGID_STATE_MAGIC 0x52494744u /* "RIGD" */
-#define RIGID_STATE_VERSION 2u /* 2: the implicit coupling's pred_f, pred_t */
+#define RIGID_STATE_VERSION 2u /* 2: the implicit coupling's debt_f, debt_t */
 
 typedef struct {
     uint32_t magic, version;

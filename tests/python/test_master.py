@@ -559,12 +559,12 @@ def test_fluid_and_body_exchange_the_same_momentum(coupler, tmp_path, coupling, 
     """A sphere (radius 4 cells, density ratio 2) launched at 0.02 m/s into a fully periodic box
     of fluid at rest, no gravity: nothing acts from outside, so the fluid's momentum plus the
     body's stays m v0, with every coupling. The loads the fluid delivers and the implicit
-    coupling's corrections add up to what the fluid exchanged, less what is in flight in the
-    last step (half a load with averaging, one correction): 4e-5 of m v0 at the end (measured;
-    the momentum exchange alone is exact to round-off). Before, the body took the implicit
-    correction on top of the fluid's load (a drag response the fluid delivers itself one step
-    later: +20 %, +9 % with averaging) and averaging counted the first load one and a half times
-    (-11 %)."""
+    coupling's corrections add up to what the fluid exchanged, less what is in flight (half the
+    last load with averaging, the implicit coupling's debt): within 3.1e-4 of m v0 at the end
+    (measured; the momentum exchange alone is exact to round-off). Before, the body took the
+    implicit correction on top of the fluid's load (a drag response the fluid delivers itself in
+    the next steps: +20 %, +9 % with averaging) and averaging counted the first load one and a
+    half times (-11 %)."""
     scene = tmp_path / "launch.yaml"
     scene.write_text(LAUNCH)
     out = tmp_path / "launch.h5"
@@ -577,7 +577,7 @@ def test_fluid_and_body_exchange_the_same_momentum(coupler, tmp_path, coupling, 
         v = f["/spheres/velocity"][:, 0, 0]
     assert v[-1] < 0.3 * v[0]  # the sphere has given most of its momentum to the fluid
     assert abs(total[-1, 0] - total[0, 0]) < 1e-3 * p0, (total[-1, 0] - total[0, 0]) / p0
-    assert np.all(np.abs(total[:, 0] - total[0, 0]) < 0.05 * p0)  # in flight: at most a step's load
+    assert np.all(np.abs(total[:, 0] - total[0, 0]) < 0.1 * p0)  # in flight: a few steps' corrections
 
 
 @pytest.mark.validate
