@@ -12,8 +12,8 @@
  * The fluid delivers that response itself in the following steps (its loads
  * are computed with the new velocity), so the corrections are paid back: each
  * step adds its correction to a debt (debt_f, debt_t) and pays back half of
- * the debt, and the corrections of a run sum to the debt left, which falls
- * by half a step once the motion is steady: fluid and bodies exchange the
+ * the debt, and the corrections of a run sum to the debt left, which
+ * halves every step once the motion is steady: fluid and bodies exchange the
  * same momentum. (Without the pay-back the body took each correction on
  * top, an added mass of h zeta that the fluid never felt: a sphere launched
  * in a periodic box at rest left the total momentum 20% above its start, 9%
@@ -22,7 +22,7 @@
  * J. Comput. Phys. 281 (2015) 591, (m + h zeta)(v' - v) = h F + h zeta dV_prev;
  * in the model m v' = -zeta v (k = h zeta / m) its extra root has |L|^2 =
  * k / (1 + k), close to 1 for a light sphere, whose velocity then jittered
- * twice as much as without the pay-back (radius 1.5 cells, density ratio
+ * more than twice as much as without the pay-back (radius 1.5 cells, density ratio
  * 0.1: 3.3% against 1.2% rms about a smooth fit). Half a debt a step gives
  * |L|^2 = (1 - a + a k) / (1 + k) = 1/2 for any k (a = 1/2). */
 #include "rigid_internal.h"
