@@ -23,19 +23,27 @@ typedef struct {
     double t, t_start, t_stop;
 } state_header_t;
 
+/* A lazy state out of its instance's list of lazy states: no longer lazy. */
+static void state_unlink(fmu_state_t *s)
+{
+    fmu_state_t **p = &s->lazy->lazy_states;
+    while (*p != NULL && *p != s) {
+        p = &(*p)->next;
+    }
+    if (*p == s) {
+        *p = s->next;
+    }
+    s->lazy = NULL;
+    s->next = NULL;
+}
+
 static void state_free(fmu_state_t *s)
 {
     if (s == NULL) {
         return;
     }
-    if (s->lazy != NULL) { /* out of its instance's list */
-        fmu_state_t **p = &s->lazy->lazy_states;
-        while (*p != NULL && *p != s) {
-            p = &(*p)->next;
-        }
-        if (*p == s) {
-            *p = s->next;
-        }
+    if (s->lazy != NULL) {
+        state_unlink(s);
     }
     free(s->bytes);
     free(s);
@@ -55,13 +63,7 @@ static fmi2Status state_keep(fmu_state_t *s, const char *fn)
     if (st >= STATUS_ERROR) {
         return fmi_report(in, st, fn, "the %s component could not save its state", in->model->identifier);
     }
-    fmu_state_t **p = &in->lazy_states;
-    while (*p != s) {
-        p = &(*p)->next;
-    }
-    *p = s->next;
-    s->lazy = NULL;
-    s->next = NULL;
+    state_unlink(s);
     return fmi2OK;
 }
 

@@ -104,18 +104,22 @@ static void close_plist(hid_t p)
     }
 }
 
-static void close_snapshot(h5fields_t *w)
+/* Closes the snapshot's datasets and group (those open); 0 when a close
+ * failed. Collective with several processes. */
+static int close_snapshot(h5fields_t *w)
 {
+    int ok = 1;
     for (int k = 0; k < 3; k++) {
-        if (w->dset[k] >= 0) {
-            H5Dclose(w->dset[k]);
+        if (w->dset[k] >= 0 && H5Dclose(w->dset[k]) < 0) {
+            ok = 0;
         }
         w->dset[k] = -1;
     }
-    if (w->snap >= 0) {
-        H5Gclose(w->snap);
+    if (w->snap >= 0 && H5Gclose(w->snap) < 0) {
+        ok = 0;
     }
     w->snap = -1;
+    return ok;
 }
 
 status_t h5fields_close(h5fields_t *w)
@@ -615,16 +619,9 @@ status_t h5fields_end(h5fields_t *w)
         st = write_time(w, w->snap, w->snap_name, w->snap_time);
     }
     /* on every process, whatever the other did: closing is collective */
-    for (int k = 0; k < 3; k++) {
-        if (w->dset[k] >= 0 && H5Dclose(w->dset[k]) < 0) {
-            st = status_worst(st, fail(w, w->snap_name));
-        }
-        w->dset[k] = -1;
-    }
-    if (H5Gclose(w->snap) < 0) {
+    if (!close_snapshot(w)) {
         st = status_worst(st, fail(w, w->snap_name));
     }
-    w->snap = -1;
     if (H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0) {
         st = status_worst(st, fail(w, w->snap_name));
     }

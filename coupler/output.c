@@ -4,8 +4,6 @@
 
 #include "version.h"
 
-#include "../common/file_held.h"
-
 #include <hdf5.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -321,14 +319,6 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
         }
         *out = o;
         return st;
-    }
-    if (file_held(path)) { /* asked first: HDF5 would empty it before finding the lock */
-        log_msg(log, STATUS_ERROR, "output",
-                "%s: another process holds this file open (a viewer, or the ranks of a stopped run?); it was left "
-                "as it is: close it there or choose another -o",
-                path);
-        output_close(o);
-        return STATUS_ERROR;
     }
     o->file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (o->file < 0) {

@@ -31,6 +31,7 @@
 #include "run.h"
 #include "mpi_env.h"
 
+#include "../common/file_held.h"
 #include "../common/fmi_adapter.h"
 #include "../fluid/decomp.h"
 #include "../fluid/units.h"
@@ -39,8 +40,6 @@
 #include "fmu.h"
 #include "master.h"
 #include "output.h"
-
-#include "../common/file_held.h"
 #include "resources.h"
 #include "summary.h"
 
