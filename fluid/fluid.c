@@ -179,6 +179,9 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     fl->overlap = !(ov != NULL && strcmp(ov, "0") == 0);
     const char *sov = getenv("AGGLO_SPHERE_OVERLAP");
     fl->sov.mode = sov == NULL ? SOV_AUTO : strcmp(sov, "0") == 0 ? SOV_OFF : strcmp(sov, "1") == 0 ? SOV_ON : SOV_AUTO;
+    const char *skip = getenv("AGGLO_SKIP_SOLID");
+    fl->skip_on = fl->streaming == STREAMING_IN_PLACE && !(skip != NULL && strcmp(skip, "0") == 0);
+    fl->skip.map = -1;
     fl->layout = fl->streaming == STREAMING_TWO_ARRAY ? LAYOUT_PULL : LAYOUT_SWAPPED;
     int have = 1;
     for (int k = 0; k < fluid_arrays(fl); k++) {
@@ -244,6 +247,7 @@ void fluid_free(fluid_t *fl)
     }
     walls_free(&fl->walls);
     spheres_free(&fl->spheres);
+    kernel_skip_free(&fl->skip);
     free(fl->sov.plane);
     free(fl->sov.far);
     free(fl->sov.near);

@@ -51,6 +51,11 @@ struct fluid {
     walls_t walls;
     spheres_t spheres;
     sphere_overlap_t sov;
+    /* in place: the update leaves the cells inside the spheres alone
+     * (kernel.h kernel_skip_t; AGGLO_SKIP_SOLID=0 turns it off, for
+     * comparisons); skip holds their runs, rebuilt after a map that moved */
+    int skip_on;
+    kernel_skip_t skip;
     long step;
     double t0;
     log_t log;

@@ -365,10 +365,32 @@ void KERNEL_ENTRY(const grid_t *g, const kernel_params_t *p, const real_t *restr
     }
 }
 
+/* The cells x0 .. x1 of the row that starts at cell row, in place. */
+static inline __attribute__((always_inline)) void in_place_span(const consts_t *k, real_t *f, size_t ncells,
+                                                                const ptrdiff_t off[LB_Q], int push, int forced,
+                                                                size_t row, int x0, int x1)
+{
+    for (int x = x0; x <= x1; x += KERNEL_ROW) {
+        const int nb = x1 + 1 - x < KERNEL_ROW ? x1 + 1 - x : KERNEL_ROW;
+        const size_t base = row + (size_t)x;
+        /* the results go where out[q] = in[qbar] points (direct = 2) */
+        const real_t *in[LB_Q];
+        for (int q = 0; q < LB_Q; q++) {
+            in[q] = f + (size_t)(push ? lb_opposite(q) : q) * ncells + base - off[q];
+        }
+        if (forced) {
+            collide_block(k, in, nb, NULL, NULL, 2, 1);
+        } else {
+            collide_block(k, in, nb, NULL, NULL, 2, 0);
+        }
+    }
+}
+
 /* The in-place (AA) step, layout.h: push = 0 the local kernel (slot q of x
  * in, slot qbar of x out), push = 1 the push kernel (slot qbar of x - c_q in,
- * slot q of x + c_q out). Interior cells only; results go straight to the
- * array (no block buffer: in place the lines were just read). */
+ * slot q of x + c_q out). Interior cells only, but those of p->skip's runs;
+ * results go straight to the array (no block buffer: in place the lines
+ * were just read). */
 void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int push, const kernel_box_t *box)
 {
     int lo[3], hi[3];
@@ -383,6 +405,10 @@ void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int p
         off[q] = push ? grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]) : 0;
     }
     const size_t ncells = g->stride;
+    const kernel_skip_t *skip = p->skip != NULL && p->skip->start != NULL && p->skip->ny == g->n[1] &&
+                                        p->skip->nz == g->n[2]
+                                    ? p->skip
+                                    : NULL;
 #pragma omp parallel
     {
 #pragma omp for collapse(2) schedule(static)
@@ -390,19 +416,19 @@ void KERNEL_IN_PLACE(const grid_t *g, const kernel_params_t *p, real_t *f, int p
             for (int y = lo[1]; y <= hi[1]; y++) {
                 const size_t row = grid_index(g, 0, y, z);
                 /* the interior cells only: no alignment to keep (ordinary stores) */
-                for (int x0 = lo[0]; x0 <= hi[0]; x0 += KERNEL_ROW) {
-                    const int nb = hi[0] + 1 - x0 < KERNEL_ROW ? hi[0] + 1 - x0 : KERNEL_ROW;
-                    const size_t base = row + (size_t)x0;
-                    /* the results go where out[q] = in[qbar] points (direct = 2) */
-                    const real_t *in[LB_Q];
-                    for (int q = 0; q < LB_Q; q++) {
-                        in[q] = f + (size_t)(push ? lb_opposite(q) : q) * ncells + base - off[q];
+                int x = lo[0];
+                if (skip != NULL) {
+                    const size_t r = (size_t)(y - 1) + (size_t)skip->ny * (size_t)(z - 1);
+                    for (uint32_t j = skip->start[r]; j < skip->start[r + 1] && x <= hi[0]; j++) {
+                        const int a = skip->run[j][0], b = skip->run[j][1];
+                        if (a > x) {
+                            in_place_span(&k, f, ncells, off, push, forced, row, x, a - 1 < hi[0] ? a - 1 : hi[0]);
+                        }
+                        x = b + 1 > x ? b + 1 : x;
                     }
-                    if (forced) {
-                        collide_block(&k, in, nb, NULL, NULL, 2, 1);
-                    } else {
-                        collide_block(&k, in, nb, NULL, NULL, 2, 0);
-                    }
+                }
+                if (x <= hi[0]) {
+                    in_place_span(&k, f, ncells, off, push, forced, row, x, hi[0]);
                 }
             }
         }

@@ -14,6 +14,9 @@
 
 #include "grid.h"
 
+#include <stddef.h>
+#include <stdint.h>
+
 /* The cells one call updates: interior cells lo..hi (allocated coordinates,
  * inclusive). fluid.c updates a block's inner cells while its halo is in
  * flight and its outer layer afterwards (README "Several MPI ranks"). With
@@ -25,11 +28,34 @@ typedef struct {
     int lo[3], hi[3];
 } kernel_box_t;
 
+/* Cells the in-place update leaves alone, row by row: the cells inside the
+ * spheres, whose values never reach a fluid cell (every population a fluid
+ * cell takes from a solid one is written by a link first, and in place the
+ * update of a cell reads and writes only the slots it owns in that step:
+ * layout.h). Row r = (y - 1) + ny (z - 1) of the block's interior has the
+ * runs run[start[r] .. start[r + 1]), each the first and the last x of a run
+ * of such cells, increasing and apart (kernel_skip_build). */
+typedef struct {
+    int ny, nz;
+    uint32_t *start;  /* ny nz + 1 */
+    int32_t (*run)[2];
+    int32_t *xs;      /* kernel_skip_build's scratch: the cells' x, row by row */
+    size_t cap_run;
+    long map;         /* the sphere map it was built for (spheres_t.maps) */
+} kernel_skip_t;
+
 typedef struct {
     double omega_plus;  /* 1/tau: sets the viscosity nu = (1/omega_plus - 1/2)/3 */
     double omega_minus; /* TRT: from the magic parameter; BGK: = omega_plus */
     double force[3];    /* body force per volume, lattice units (Guo et al. 2002) */
+    const kernel_skip_t *skip; /* in place: the cells left alone (NULL: none; two arrays: ignored) */
 } kernel_params_t;
+
+/* The runs of k for the n cells (grid indices of g; cells outside the
+ * interior ignored, a cell listed twice taken once): 0 when out of memory
+ * (k is then empty, and a kernel given it updates every cell). */
+int kernel_skip_build(kernel_skip_t *k, const grid_t *g, const size_t *cells, size_t n);
+void kernel_skip_free(kernel_skip_t *k);
 
 /* omega_minus for the magic parameter Lambda = (1/w+ - 1/2)(1/w- - 1/2)
  * (Ginzburg, Verhaeghe & d'Humieres, Commun. Comput. Phys. 3 (2008) 427). */

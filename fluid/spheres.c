@@ -528,6 +528,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
             }
         }
     }
+    sp->maps++; /* a new list of solid cells */
     /* refill, after all flags are final; fresh cells do not feed each other */
     for (size_t j = 0; j < sp->nfresh; j++) {
         const size_t i = sp->fresh[j];

@@ -169,6 +169,7 @@ typedef struct spheres_s {
     size_t nfresh, cap_fresh;
     int *fresh_sphere;
     long covered_total, uncovered_total;
+    long maps;                      /* maps that made a new list of solid cells (solid, nsolid) */
     long refreshed, refresh_failed; /* maps whose links were refreshed in place, or tried and rebuilt */
     long partial, partial_failed;   /* maps that rebuilt the dirty spheres' lists and refreshed the others, or
                                      * tried and rebuilt all (sphere_links.c) */

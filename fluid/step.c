@@ -21,22 +21,36 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The collision and streaming of the cells of box b (NULL: all). */
-static void update(fluid_t *fl, const kernel_box_t *b)
+/* The collision and streaming of the cells of box b (NULL: all); in place,
+ * with skip, but those inside the spheres (fl->skip). */
+static void update(fluid_t *fl, const kernel_box_t *b, int skip)
 {
+    kernel_params_t kp = fl->kp;
+    kp.skip = skip && fl->skip_on && fl->skip.map == fl->spheres.maps ? &fl->skip : NULL;
     if (fl->streaming == STREAMING_TWO_ARRAY) {
         if (fl->single) {
-            kernel_stream_collide_f32(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
+            kernel_stream_collide_f32(&fl->g, &kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
         } else {
-            kernel_stream_collide(&fl->g, &fl->kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
+            kernel_stream_collide(&fl->g, &kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
         }
     } else {
         const int push = fl->layout == LAYOUT_SWAPPED;
         if (fl->single) {
-            kernel_in_place_f32(&fl->g, &fl->kp, fl->f[0], push, b);
+            kernel_in_place_f32(&fl->g, &kp, fl->f[0], push, b);
         } else {
-            kernel_in_place(&fl->g, &fl->kp, fl->f[0], push, b);
+            kernel_in_place(&fl->g, &kp, fl->f[0], push, b);
         }
+    }
+}
+
+/* After a map: the runs of the cells inside the spheres, anew when the map
+ * made a new list of them. Out of memory the update goes over every cell
+ * (fl->skip.map stays behind: update). */
+static void skip_refresh(fluid_t *fl)
+{
+    const spheres_t *sp = &fl->spheres;
+    if (fl->skip_on && fl->skip.map != sp->maps && kernel_skip_build(&fl->skip, &fl->g, sp->solid, sp->nsolid)) {
+        fl->skip.map = sp->maps;
     }
 }
 
@@ -90,7 +104,7 @@ static void step_overlapped(fluid_t *fl, const pops_t *p)
             kernel_box_t b = in;
             b.lo[2] = in.lo[2] + zlen * j / nslice;
             b.hi[2] = in.lo[2] + zlen * (j + 1) / nslice - 1;
-            update(fl, &b);
+            update(fl, &b, 1);
             decomp_exchange_progress(&fl->d);
         }
         walls_halo_end(&fl->walls, g, p, axes[k]);
@@ -107,7 +121,7 @@ static void step_overlapped(fluid_t *fl, const pops_t *p)
         {{1, n1, 2}, {n0, n1, n2 - 1}},
     };
     for (int i = 0; i < 4; i++) {
-        update(fl, &outer[i]);
+        update(fl, &outer[i], 1);
     }
 }
 
@@ -241,6 +255,7 @@ static status_t step_spheres_beside(fluid_t *fl, const pops_t *p, int plan)
         if (st != STATUS_OK) {
             return st;
         }
+        skip_refresh(fl);
     }
     walls_fill(&fl->walls, &fl->g, p);
 #pragma omp parallel
@@ -249,6 +264,9 @@ static status_t step_spheres_beside(fluid_t *fl, const pops_t *p, int plan)
         {
             if (plan == SOV_MAP_FILL) {
                 st = spheres_map(&fl->spheres, &fl->g, fl->flags, p, &fl->log);
+                if (st == STATUS_OK) {
+                    skip_refresh(fl);
+                }
             }
             if (st == STATUS_OK) {
                 spheres_fill(&fl->spheres, p, SPHERES_ALL);
@@ -256,14 +274,14 @@ static status_t step_spheres_beside(fluid_t *fl, const pops_t *p, int plan)
         }
 #pragma omp for schedule(dynamic, 1) nowait
         for (int c = 0; c < ov->nfar; c++) {
-            update(fl, &ov->far[c]);
+            update(fl, &ov->far[c], 0); /* no sphere near: nothing to skip (and the map may be rebuilding the runs) */
         }
     }
     if (st != STATUS_OK) {
         return st;
     }
     for (int c = 0; c < ov->nnear; c++) {
-        update(fl, &ov->near[c]);
+        update(fl, &ov->near[c], 1);
     }
     return STATUS_OK;
 }
@@ -292,6 +310,7 @@ status_t fluid_step(fluid_t *fl)
             if (st != STATUS_OK) {
                 return st;
             }
+            skip_refresh(fl);
         }
         int exchanged = 0;
         for (int a = 1; a < 3; a++) {
@@ -307,7 +326,7 @@ status_t fluid_step(fluid_t *fl)
             if (spheres) {
                 spheres_fill(&fl->spheres, &p, SPHERES_ALL);
             }
-            update(fl, NULL);
+            update(fl, NULL, 1);
         }
     }
     if (spheres) {

@@ -208,7 +208,7 @@ static void tiles_equal_one_call(int two, int single, int xa)
     const int n[3] = {19, 7, 9};
     grid_t g;
     grid_init(&g, n, two ? GRID_ALIGN : 1);
-    const kernel_params_t kp = {1.0 / 0.8, kernel_omega_minus(1.0 / 0.8, 0.25), {1e-5, -2e-5, 3e-5}};
+    const kernel_params_t kp = {1.0 / 0.8, kernel_omega_minus(1.0 / 0.8, 0.25), {1e-5, -2e-5, 3e-5}, NULL};
     const size_t es = single ? sizeof(float) : sizeof(double), bytes = ((size_t)LB_Q * g.stride * es + 63) / 64 * 64;
     unsigned char *a = aligned_alloc(64, bytes), *b = aligned_alloc(64, bytes); /* C11: a multiple of 64 */
     unsigned char *a2 = aligned_alloc(64, bytes), *b2 = aligned_alloc(64, bytes);

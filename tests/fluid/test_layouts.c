@@ -234,6 +234,94 @@ static void test_in_place_multireflection_at_omega_minus_one(void)
     CU_ASSERT(fscale > 0.0 && dload < 1e-11);
 }
 
+/* The value of every population of the interior solid cells set to v
+ * (all: every slot each sends; else the rest population alone, the one slot
+ * a cell owns in both in-place states). */
+static void set_solid(fluid_t *fl, double v, int all)
+{
+    const pops_t p = fluid_pops(fl);
+    for (size_t j = 0; j < fl->spheres.nsolid; j++) {
+        const size_t i = fl->spheres.solid[j];
+        int X[3] = {(int)(i % (size_t)fl->g.s[0]), (int)(i / (size_t)fl->g.s[0] % (size_t)fl->g.s[1]),
+                    (int)(i / ((size_t)fl->g.s[0] * (size_t)fl->g.s[1]))};
+        if (!grid_is_interior(&fl->g, X[0], X[1], X[2])) {
+            continue;
+        }
+        for (int q = 0; q < (all ? LB_Q : 1); q++) {
+            pops_write(&p, q, pops_post_slot(&p, q, i), v);
+        }
+    }
+}
+
+/* In place the update leaves the cells inside the spheres alone (kernel.h
+ * kernel_skip_t), which is right because what they hold never reaches the
+ * fluid: with every value of every solid cell made NaN after each step, a
+ * moving and turning sphere (away from the walls) gives the same flow and
+ * load to the bit as without, whether the update skips them or not; and the
+ * rest population of a cell solid before and after a step keeps a value
+ * put there when the update skips it, and not when it does not. */
+static void test_in_place_leaves_solid_cells_alone(void)
+{
+    double *m[2];
+    m[0] = malloc(sizeof(double) * 4 * NCELLS);
+    m[1] = malloc(sizeof(double) * 4 * NCELLS);
+    CU_ASSERT_FATAL(m[0] != NULL && m[1] != NULL);
+    for (int walls = 0; walls < 2; walls++) {
+        for (int skip = 0; skip < 2; skip++) {
+            double load[2][6];
+            for (int poison = 0; poison < 2; poison++) {
+                scene_t s = layout_scene(walls, walls ? BOUNDARY_MULTIREFLECTION : BOUNDARY_CLI, STREAMING_IN_PLACE);
+                fluid_t *fl = test_fluid(&s);
+                fl->skip_on = skip;
+                for (int n = 0; n < 41; n++) {
+                    CU_ASSERT_EQUAL(fluid_step(fl), STATUS_OK);
+                    if (poison) {
+                        set_solid(fl, NAN, 1);
+                    }
+                }
+                fluid_moments_lattice(fl, m[poison], m[poison] + NCELLS);
+                fluid_sphere_load_lattice(fl, 0, load[poison], load[poison] + 3);
+                CU_ASSERT(fl->spheres.covered_total > 5 && fl->spheres.uncovered_total > 5);
+                fluid_free(fl);
+            }
+            CU_ASSERT(memcmp(m[0], m[1], sizeof(double) * 4 * NCELLS) == 0);
+            CU_ASSERT(memcmp(load[0], load[1], sizeof load[0]) == 0);
+            CU_ASSERT(isfinite(load[1][0]) && load[1][0] != 0.0);
+        }
+    }
+    for (int skip = 0; skip < 2; skip++) {
+        scene_t s = layout_scene(1, BOUNDARY_CLI, STREAMING_IN_PLACE);
+        fluid_t *fl = test_fluid(&s);
+        fl->skip_on = skip;
+        test_run(fl, 6);
+        set_solid(fl, 7.0, 0);
+        const size_t ncells = fl->g.ncells;
+        unsigned char *was = calloc(ncells, 1);
+        CU_ASSERT_FATAL(was != NULL);
+        for (size_t j = 0; j < fl->spheres.nsolid; j++) {
+            was[fl->spheres.solid[j]] = 1;
+        }
+        CU_ASSERT_EQUAL(fluid_step(fl), STATUS_OK);
+        const pops_t p = fluid_pops(fl);
+        long kept = 0, both = 0;
+        for (size_t j = 0; j < fl->spheres.nsolid; j++) {
+            const size_t i = fl->spheres.solid[j];
+            int X[3] = {(int)(i % (size_t)fl->g.s[0]), (int)(i / (size_t)fl->g.s[0] % (size_t)fl->g.s[1]),
+                        (int)(i / ((size_t)fl->g.s[0] * (size_t)fl->g.s[1]))};
+            if (was[i] && grid_is_interior(&fl->g, X[0], X[1], X[2])) {
+                both++;
+                kept += pops_post(&p, 0, i) == 7.0;
+            }
+        }
+        CU_ASSERT(both > 50);
+        CU_ASSERT_EQUAL(kept, skip ? both : 0);
+        free(was);
+        fluid_free(fl);
+    }
+    free(m[0]);
+    free(m[1]);
+}
+
 void layouts_register_tests(void)
 {
     CU_pSuite s = CU_add_suite("layouts", NULL, NULL);
@@ -244,4 +332,6 @@ void layouts_register_tests(void)
                 test_single_precision_close_to_double);
     CU_add_test(s, "in place: multireflection at omega_minus = 1 from the links' kept pairs",
                 test_in_place_multireflection_at_omega_minus_one);
+    CU_add_test(s, "in place: the cells inside the spheres left alone, and nothing of them reaches the fluid",
+                test_in_place_leaves_solid_cells_alone);
 }
