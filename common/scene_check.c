@@ -11,6 +11,7 @@
 #include "scene_internal.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <stdio.h>
 
 static const double SCENE_DX_TOLERANCE = 1e-9; /* relative, for "size is a multiple of dx" */
@@ -168,6 +169,62 @@ void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok)
                 }
             }
         }
+    }
+}
+
+/* A body across a periodic face: its spheres' centres, each given in [0, L),
+ * moved to the images that make the body one piece (each to the image
+ * nearest a sphere it touches, from the body's first sphere on), so that its
+ * centroid, its turning and its mass properties are those of the body and
+ * not of its pieces scattered over the box. A sphere that touches none of
+ * the others goes to the image nearest the first sphere (the rigid component
+ * then reports the body as not one piece). The components wrap the centres
+ * into the box where they place spheres in it. */
+void scene_unwrap_bodies(scene_t *s)
+{
+    for (int i = 0; i < s->nbodies; i++) {
+        scene_body_t *b = &s->bodies[i];
+        int *stack = malloc((size_t)b->nspheres * sizeof *stack);
+        unsigned char *seen = calloc((size_t)b->nspheres, 1);
+        int top = 0;
+        if (stack != NULL && seen != NULL && b->nspheres > 0) {
+            stack[top++] = 0;
+            seen[0] = 1;
+        }
+        while (top > 0) {
+            const scene_sphere_t *u = &b->spheres[stack[--top]];
+            for (int k = 0; k < b->nspheres; k++) {
+                scene_sphere_t *v = &b->spheres[k];
+                double d[3], d2 = 0.0;
+                for (int a = 0; a < 3; a++) {
+                    d[a] = v->center[a] - u->center[a];
+                    if (axis_periodic(s, a)) {
+                        d[a] -= s->domain.size[a] * round(d[a] / s->domain.size[a]);
+                    }
+                    d2 += d[a] * d[a];
+                }
+                if (seen[k] || sqrt(d2) > (u->radius + v->radius) * (1.0 + SCENE_TOUCH_TOL)) {
+                    continue;
+                }
+                for (int a = 0; a < 3; a++) {
+                    v->center[a] = u->center[a] + d[a];
+                }
+                seen[k] = 1;
+                stack[top++] = k;
+            }
+        }
+        for (int k = 1; k < b->nspheres; k++) {
+            if (seen == NULL || !seen[k]) {
+                for (int a = 0; a < 3; a++) {
+                    if (axis_periodic(s, a)) {
+                        const double L = s->domain.size[a], d = b->spheres[k].center[a] - b->spheres[0].center[a];
+                        b->spheres[k].center[a] -= L * round(d / L);
+                    }
+                }
+            }
+        }
+        free(stack);
+        free(seen);
     }
 }
 

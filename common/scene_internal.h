@@ -264,6 +264,10 @@ bool scene_check_int(ctx_t *c, const char *key, double v, double lo, double hi);
 void scene_check_divisible(ctx_t *c, const scene_t *s);
 void scene_check_spheres(ctx_t *c, const scene_t *s, bool domain_ok, bool dx_ok);
 void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok);
+/* relative: spheres of a body touch when d <= (r_a + r_b)(1 + tol), as the
+ * rigid component counts them (RIGID_TOUCH_TOL) */
+#define SCENE_TOUCH_TOL 1e-9
+void scene_unwrap_bodies(scene_t *s);
 void scene_check_initial_profile(ctx_t *c, scene_t *s); /* sets fluid.channel_axis */
 void scene_check_speeds(ctx_t *c, const scene_t *s);
 void scene_check_time_scales(ctx_t *c, const scene_t *s);

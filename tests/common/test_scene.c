@@ -702,6 +702,28 @@ static void test_overlap(void)
     /* spheres of one body may overlap (sintered): the base scene has that */
 }
 
+/* A body given across a periodic face is made one piece: each centre moves
+ * to the image nearest a sphere it touches, from the first sphere on; a
+ * chain longer than half the period (here 0.6 mm of 1 mm) too, where the
+ * image nearest the first sphere would tear it. */
+static void test_body_across_periodic_face(void)
+{
+    const char *const ov[] = {"bodies.0.spheres=[{center: [7.5e-4, 5e-4, 5e-4], radius: 1e-4}, "
+                              "{center: [9.0e-4, 5e-4, 5e-4], radius: 1e-4}, {center: [0.5e-4, 5e-4, 5e-4], radius: 1e-4}, "
+                              "{center: [2.0e-4, 5e-4, 5e-4], radius: 1e-4}, {center: [3.5e-4, 5e-4, 5e-4], radius: 1e-4}]",
+                              "bodies.1.spheres.0.center=[5e-4, 8e-4, 1.5e-3]"};
+    capture_t cap;
+    scene_t *s = NULL;
+    CU_ASSERT_EQUAL_FATAL(load(BASE, ov, 2, &cap, &s), STATUS_OK);
+    const double want[5] = {7.5e-4, 9.0e-4, 1.05e-3, 1.2e-3, 1.35e-3};
+    for (int k = 0; k < 5; k++) {
+        CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].spheres[k].center[0], want[k], 1e-15);
+        CU_ASSERT_EQUAL(s->bodies[0].spheres[k].center[1], 5e-4);
+    }
+    CU_ASSERT_EQUAL(s->bodies[1].spheres[0].center[0], 5e-4); /* a body inside the box: as given */
+    scene_free(s);
+}
+
 static void test_radius_cells(void)
 {
     EXPECT_SET_ERROR("bodies.0.spheres.1.radius=3e-5",
@@ -804,6 +826,7 @@ void scene_register_tests(void)
         {"warnings", test_warnings},
         {"repeatable", test_repeatable},
         {"contacts.lubrication", test_lubrication_keys},
+        {"body across a periodic face", test_body_across_periodic_face},
     },
       bad[] = {
           {"missing file", test_missing_file},

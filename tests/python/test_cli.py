@@ -282,3 +282,52 @@ def test_bench_coupled_json(coupler):
         assert 0.5 * whole < parts["fluid"] + parts["rigid"] + parts["master"] <= whole + 2e-6, (parts, whole)
         assert parts["startup"] + parts["output"] <= parts["master"] + 2e-6, parts
     assert r["fluid_only_parts_s"]["rigid"] == 0 and r["coupled_parts_s"]["rigid"] > 0
+
+
+STRADDLE = """\
+domain: {size: [3.2e-4, 2.4e-4, 2.4e-4]}
+fluid: {density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-5, tau: 0.8}
+bodies:
+  - name: dumbbell
+    density: 1500.0
+    motion: %s
+    velocity: [0.004, 0.001, 0]
+    angular_velocity: [0, 0, 200.0]
+    spheres:
+      - {center: [%s, 1.17e-4, 1.21e-4], radius: 4.0e-5}
+      - {center: [%s, 1.17e-4, 1.21e-4], radius: 4.0e-5}
+rigid: {gravity: [0, 0, 0]}
+run: {end_time: 2.0e-4, output_interval: 1.0e-5}
+"""
+
+
+@pytest.mark.parametrize("motion", ["prescribed", "free"])
+def test_body_across_a_periodic_face_moves_as_one_piece(coupler, tmp_path, motion):
+    """A body of two touching spheres given across the periodic x face (centres
+    2.93e-4 and 0.33e-4 in a box 3.2e-4 long) is the same body as its copy
+    16 cells over, inside the box (1.33e-4, 1.93e-4): it turns about its own
+    centroid (prescribed) and is one piece with its own mass properties (free),
+    so both give the same sphere velocities and the same positions, 16 cells
+    apart (modulo the period), to round-off. (Before, the centroid was the mean of the wrapped
+    centres: the prescribed body turned about a point 15 cells off, its
+    spheres at 0.026 instead of 0.006 m/s; the free one was refused as not
+    one piece.)"""
+    res = {}
+    for name, xs in (("inside", ("1.33e-4", "1.93e-4")), ("across", ("2.93e-4", "0.33e-4"))):
+        scene = tmp_path / f"{name}.yaml"
+        scene.write_text(STRADDLE % (motion, *xs))
+        out = tmp_path / f"{name}.h5"
+        p = run("run", scene, "-o", out, "--quiet")
+        assert p.returncode == 0, p.stderr
+        with h5py.File(out, "r") as f:
+            res[name] = f["/spheres/position"][()], f["/spheres/velocity"][()]
+    (pa, va), (pb, vb) = res["inside"], res["across"]
+    L = 3.2e-4
+    assert len(pa) == len(pb) == 21
+    speed = np.abs(va).max()
+    assert speed > 3e-3  # 200 rad/s at 3 cells from the centroid, plus the drift of the free body
+    assert np.abs(va - vb).max() < 1e-9 * speed
+    # the same places, 1.6e-4 apart along x (wrapped or continuous)
+    dx = (pb[..., 0] - pa[..., 0] - 1.6e-4) / L
+    assert np.abs(dx - np.round(dx)).max() < 1e-9
+    assert np.abs(pb[..., 1:] - pa[..., 1:]).max() < 1e-12
