@@ -31,6 +31,8 @@
 
 #include <assert.h>
 #include <errno.h>
+#include <limits.h>
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -53,6 +55,23 @@ int scene_whole_ns(double t, long long *ns)
         *ns = isfinite(n) && fabs(n) < 9e18 ? (long long)n : 0;
     }
     return isfinite(n) && n >= 1.0 && fabs(t * 1e9 - n) <= 1e-9 * n;
+}
+
+long scene_next_multiple(long k, double interval, double x)
+{
+    const double guess = floor(x / interval) + 1.0;
+    if (!(guess < 0x1p62)) {
+        return LONG_MAX;
+    }
+    long m = guess > (double)k ? (long)guess : k;
+    /* the division may round either way: a step or two to the exact answer */
+    while (m > k && (double)(m - 1) * interval > x) {
+        m--;
+    }
+    while ((double)m * interval <= x) {
+        m++;
+    }
+    return m;
 }
 
 int scene_total_spheres(const scene_t *s)

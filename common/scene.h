@@ -191,4 +191,10 @@ const char *face_type_name(face_type_t t);
  * FMUs' tolerance on communication points); *ns the nearest count (may be NULL). */
 int scene_whole_ns(double t, long long *ns);
 
+/* The next of a schedule of events at whole multiples of interval (rows,
+ * snapshots, checkpoints): the smallest k' >= k with k' interval > x, found
+ * from a division and not by counting (an interval of 1e-30 s counted up
+ * to t for ever). interval > 0; LONG_MAX when k' would not fit. */
+long scene_next_multiple(long k, double interval, double x);
+
 #endif

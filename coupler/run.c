@@ -113,6 +113,56 @@ static status_t check_writable(const char *path, const log_t *log)
     return STATUS_OK;
 }
 
+/* a and b name the same file: the same inode where both exist, else the
+ * same folder (resolved) and name. */
+static int same_file(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0) {
+        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    }
+    char da[4096], db[4096], ra[PATH_MAX], rb[PATH_MAX];
+    const char *na = strrchr(a, '/'), *nb = strrchr(b, '/');
+    snprintf(da, sizeof da, "%.*s", na != NULL ? (int)(na - a) + 1 : 1, na != NULL ? a : ".");
+    snprintf(db, sizeof db, "%.*s", nb != NULL ? (int)(nb - b) + 1 : 1, nb != NULL ? b : ".");
+    return realpath(da, ra) != NULL && realpath(db, rb) != NULL && strcmp(ra, rb) == 0 &&
+           strcmp(na != NULL ? na + 1 : a, nb != NULL ? nb + 1 : b) == 0;
+}
+
+/* No file the run writes is one it reads or another it writes (checked
+ * before anything is written: `-o scene.yaml` overwrote the scene, `-o
+ * cp.h5 --restart cp.h5` emptied the checkpoint it was to continue from).
+ * The checkpoint beside the output may be the one a restart reads: that is
+ * how a run continues. */
+static status_t check_paths(const scene_t *scene, const run_options_t *opt, const master_t *m, const log_t *log)
+{
+    const struct {
+        const char *path, *what;
+    } out[] = {{opt->output, "the output (-o)"},
+               {m->cp_path, "the checkpoint beside the output"},
+               {m->fields[0] != '\0' ? m->fields : NULL, "the field file beside the output"},
+               {opt->log_calls, "the FMI call log (--log-fmi-calls)"}},
+      in[] = {{scene->path, "the scene file"},
+              {opt->restart, "the checkpoint to restart from (--restart)"},
+              {opt->fluid_fmu, "the fluid FMU (--fluid-fmu)"},
+              {opt->rigid_fmu, "the rigid FMU (--rigid-fmu)"}};
+    const int nout = (int)(sizeof out / sizeof out[0]), nin = (int)(sizeof in / sizeof in[0]);
+    for (int i = 0; i < nout; i++) {
+        for (int j = 0; j < nin + i && out[i].path != NULL; j++) {
+            const int earlier = j >= nin; /* another file this run writes */
+            const char *path = earlier ? out[j - nin].path : in[j].path;
+            const char *what = earlier ? out[j - nin].what : in[j].what;
+            if (path == NULL || (i == 1 && j == 1) || !same_file(out[i].path, path)) {
+                continue;
+            }
+            return log_msg(log, STATUS_ERROR, CAT,
+                           "%s %s is also %s: the run would %s it; allowed: another -o (or file name)", out[i].what,
+                           out[i].path, what, earlier ? "write two things into" : "overwrite");
+        }
+    }
+    return STATUS_OK;
+}
+
 static status_t load_fmus(master_t *m)
 {
     const run_options_t *opt = m->opt;
@@ -287,7 +337,25 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     const double dt = scene->fluid.dt, h = k_lbm * dt;
     const long nsteps = opt->steps > 0 ? opt->steps : (long)ceil(scene->run.end_time / h - 1e-9);
     const double t_end = nsteps * h;
+    if (opt->checkpoint_every > 0.0 && opt->checkpoint_every < h * (1.0 - 1e-9)) {
+        log_msg(log, STATUS_ERROR, CAT,
+                "--checkpoint-every %g s is shorter than one communication step (%g s); allowed: at least %g s",
+                opt->checkpoint_every, h, h);
+        goto done;
+    }
     checkpoint_path(opt->output, m.cp_path, sizeof m.cp_path);
+    if (scene->run.fields) {
+        /* OUT_fields.h5 beside OUT.h5; the output links to it by its name */
+        snprintf(m.fields, sizeof m.fields, "%s", opt->output);
+        char *dot = strrchr(m.fields, '.'), *slash = strrchr(m.fields, '/');
+        if (dot != NULL && (slash == NULL || dot > slash)) {
+            *dot = '\0';
+        }
+        strncat(m.fields, "_fields.h5", sizeof m.fields - strlen(m.fields) - 1);
+    }
+    if (check_paths(scene, opt, &m, log) != STATUS_OK) {
+        goto done;
+    }
     if (opt->log_calls != NULL && (m.calls = fopen(opt->log_calls, "w")) == NULL) {
         log_msg(log, STATUS_ERROR, CAT, "cannot write the FMI call log %s: %s", opt->log_calls, strerror(errno));
         goto done;
@@ -325,13 +393,6 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     }
     const char *fields_rel = NULL;
     if (scene->run.fields) {
-        /* OUT_fields.h5 beside OUT.h5; the output links to it by its name */
-        snprintf(m.fields, sizeof m.fields, "%s", opt->output);
-        char *dot = strrchr(m.fields, '.'), *slash = strrchr(m.fields, '/');
-        if (dot != NULL && (slash == NULL || dot > slash)) {
-            *dot = '\0';
-        }
-        strncat(m.fields, "_fields.h5", sizeof m.fields - strlen(m.fields) - 1);
         fields_rel = strrchr(m.fields, '/') != NULL ? strrchr(m.fields, '/') + 1 : m.fields;
         if (writer && check_writable(m.fields, log) >= STATUS_ERROR) {
             goto done;
@@ -449,7 +510,9 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         goto done;
     }
     /* the loop */
-    const double oi = scene->run.output_interval, ncells = (double)m.un.n[0] * m.un.n[1] * m.un.n[2];
+    /* an output interval shorter than a communication step: a row every
+     * step (the scene check warns), counted in steps */
+    const double oi = fmax(scene->run.output_interval, h), ncells = (double)m.un.n[0] * m.un.n[1] * m.un.n[2];
     const int tty = !opt->quiet && isatty(fileno(stderr));
     const long n0 = restart.step;
     long next_out = restart.next_out;
@@ -488,9 +551,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
                 m.settle_t[m.nsettle] = t;
                 m.settle_v[m.nsettle++] = v[0] * gdir[0] + v[1] * gdir[1] + v[2] * gdir[2];
             }
-            while (next_out * oi <= t + 1e-9 * dt) {
-                next_out++;
-            }
+            next_out = scene_next_multiple(next_out, oi, t + 1e-9 * dt);
         }
         wout += omp_get_wtime() - w_out0;
         if (cp.n1 >= 0 && n >= cp.n1 && master_checkpoint_record(&m, &cp, n) != STATUS_OK) {
@@ -525,8 +586,8 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             if (master_save_checkpoint(&m, out, &point) != STATUS_OK) {
                 goto stopped;
             }
-            while (every > 0.0 && next_cp * every <= t + 1e-9 * dt) {
-                next_cp++;
+            if (every > 0.0) {
+                next_cp = scene_next_multiple(next_cp, every, t + 1e-9 * dt);
             }
         }
         if (!last && stop != 0) {

@@ -357,7 +357,8 @@ static status_t maybe_snapshot(fluid_fmi_t *m)
     if (m->fields == NULL) {
         return STATUS_OK;
     }
-    const double dt = fluid_units(m->fl)->dt, fi = m->scene->run.field_interval, t = fluid_time(m->fl);
+    /* an interval shorter than a step: a snapshot every step */
+    const double dt = fluid_units(m->fl)->dt, fi = fmax(m->scene->run.field_interval, dt), t = fluid_time(m->fl);
     const long step = fluid_step_count(m->fl);
     if (t < m->next_field * fi - 1e-9 * dt && step != m->end_step) {
         return STATUS_OK;
@@ -383,9 +384,7 @@ static status_t maybe_snapshot(fluid_fmi_t *m)
         }
         st = status_worst(st, h5fields_end(m->fields));
     }
-    while (m->next_field * fi <= t + 1e-9 * dt) {
-        m->next_field++;
-    }
+    m->next_field = scene_next_multiple(m->next_field, fi, t + 1e-9 * dt);
     return st;
 }
 
@@ -613,10 +612,7 @@ static status_t fluid_fmi_state_restore(void *comp, const void *buf, size_t size
     fluid_fmi_t *m = comp;
     status_t st = fluid_state_restore(m->fl, buf, size);
     const double dt = fluid_units(m->fl)->dt, t = fluid_time(m->fl);
-    m->next_field = 0;
-    while (m->fields != NULL && m->next_field * m->scene->run.field_interval <= t + 1e-9 * dt) {
-        m->next_field++;
-    }
+    m->next_field = m->fields != NULL ? scene_next_multiple(0, fmax(m->scene->run.field_interval, dt), t + 1e-9 * dt) : 0;
     if (st < STATUS_ERROR && m->fields != NULL) {
         st = status_worst(st, h5fields_drop_after(m->fields, fluid_step_count(m->fl)));
     }

@@ -193,6 +193,49 @@ def test_unwritable_output(coupler, tmp_path):
     assert p.returncode == 1 and "dir.h5" in p.stderr
 
 
+def test_run_never_writes_over_what_it_reads(coupler, tmp_path):
+    # `-o scene.yaml` turned the scene into an HDF5 file; `-o cp.h5 --restart cp.h5` emptied the
+    # checkpoint to continue from (5.6 MB to 13 kB); `--log-fmi-calls` equal to `-o` left an output
+    # h5py could not open, with exit 0. Now each is refused before anything is written.
+    scene = tmp_path / "scene.yaml"
+    scene.write_text((MODELS / "channel_poiseuille.yaml").read_text())
+    text = scene.read_bytes()
+    p = run("run", scene, "-o", scene, "--steps", "2")
+    assert p.returncode == 1 and "is also the scene file" in p.stderr
+    assert scene.read_bytes() == text
+    out = tmp_path / "a.h5"
+    p = run("run", scene, "-o", out, "--steps", "4", "--checkpoint-every", "1e-4", "--quiet")
+    cp = tmp_path / "a_checkpoint.h5"
+    assert p.returncode == 0 and cp.exists(), p.stderr
+    kept = cp.read_bytes()
+    p = run("run", scene, "-o", cp, "--restart", cp)
+    assert p.returncode == 1 and "is also the checkpoint to restart from" in p.stderr
+    assert cp.read_bytes() == kept
+    p = run("run", scene, "-o", tmp_path / "b.h5", "--log-fmi-calls", tmp_path / "b.h5", "--steps", "2")
+    assert p.returncode == 1 and "is also the output" in p.stderr
+    assert not (tmp_path / "b.h5").exists()
+    # the usual restart, from the checkpoint beside the output, is not such a clash
+    p = run("run", scene, "-o", out, "--restart", cp, "--steps", "6", "--quiet")
+    assert p.returncode == 0, p.stderr
+
+
+def test_tiny_intervals_do_not_hang(coupler, tmp_path):
+    # run.output_interval / run.field_interval of 1e-30 s: the next row's index was counted up to
+    # t one interval at a time (1e26 turns of a loop that a signal could not stop). Now a row and
+    # a snapshot every step; a checkpoint interval below the communication step is refused.
+    out = tmp_path / "t.h5"
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", out, "--steps", "5", "--quiet",
+            "--set", "run.output_interval=1e-30", "--set", "run.fields=true", "--set", "run.field_interval=1e-30")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f:
+        assert len(f["/time"]) == 6
+    with h5py.File(tmp_path / "t_fields.h5", "r") as f:
+        assert len(f["/fields"]) == 6  # the start and every step
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", tmp_path / "c.h5", "--steps", "5",
+            "--checkpoint-every", "1e-30")
+    assert p.returncode == 1 and "--checkpoint-every 1e-30 s is shorter than one communication step" in p.stderr
+
+
 @pytest.mark.parametrize("held", ["output", "fields"])
 def test_output_held_open_elsewhere_is_left_as_it_is(coupler, tmp_path, held):
     # HDF5's create (H5F_ACC_TRUNC) empties a file before it finds that another process holds
