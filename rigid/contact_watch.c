@@ -51,6 +51,11 @@
  * 10% in energy; Verlet at h omega0 <= 0.6 stays below 1.03 (1D spring,
  * every phase of the touch), a resolved contact (>= 10 sub-steps) below 1.003 */
 #define WATCH_TOL 1.05
+/* speeds below this fraction of the pair's own speed scale (the bodies'
+ * speeds and their rotation at the arms) are round-off, not energy: two
+ * bodies that start touching at rest fall together, and their normal speed,
+ * 1e-12 m/s against an approach speed of 0, was reported as infinite growth */
+#define WATCH_FLOOR 1e-6
 /* pairs closer than this fraction of the smallest radius are sampled */
 #define WATCH_REACH 0.5
 
@@ -134,6 +139,14 @@ static double rotation_rate(const rigid_t *r, const rigid_body_t *bodies, int b,
 
 static double body_inv_mass(const rigid_body_t *b) { return b->fixed ? 0.0 : 1.0 / b->mass; }
 
+/* The speed of body b at the arm a: |v| + |omega| |a|. */
+static double speed_scale(const rigid_body_t *bodies, int b, const double a[3])
+{
+    double w[3];
+    rigid_body_omega(&bodies[b], w);
+    return rv_norm(bodies[b].v) + rv_norm(w) * rv_norm(a);
+}
+
 static status_t watch_report(rigid_t *r, const rigid_watch_t *w, double vnow, double t, double dt)
 {
     const int i = w->i, j = w->j, bi = r->spheres[i].body;
@@ -174,11 +187,13 @@ static int watch_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t
     w->seen = 1;
     const int bi = si->body, bj = p->j >= 0 ? r->spheres[p->j].body : -1;
     const double vn = rv_dot(p->vrel, p->n); /* > 0: approaching */
+    const double noise =
+        WATCH_FLOOR * (speed_scale(bodies, bi, p->ai) + (bj >= 0 ? speed_scale(bodies, bj, p->aj) : 0.0));
     if (!(p->gap < 0.0)) {
         if (w->phase == WATCH_TOUCHING) {
             /* the first sample after separation: the rebound speed */
             const double allow = w->allow + c->dt * w->rate;
-            if (-vn > WATCH_TOL * w->v_in + allow) {
+            if (-vn > WATCH_TOL * w->v_in + allow + noise) {
                 w->allow = allow;
                 c->st = watch_report(r, w, -vn, c->t, c->dt);
                 return 0;
@@ -228,7 +243,7 @@ static int watch_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t
     w->omega0 = fmax(w->omega0, omega0);
     const double e_el = rigid_contact_elastic_energy(&r->cfg, delta, meff, rstar);
     const double ve = sqrt(vn * vn + 2.0 * e_el / meff);
-    if (ve > WATCH_TOL * w->v_in + w->allow) {
+    if (ve > WATCH_TOL * w->v_in + w->allow + noise) {
         c->st = watch_report(r, w, ve, c->t, c->dt);
     }
     return 0;
