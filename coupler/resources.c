@@ -94,11 +94,11 @@ int resources_compare(const resources_need_t *need, const char *folder, status_t
     }
     struct statvfs v;
     if (statvfs(folder, &v) == 0) {
-        const double free_bytes = (double)v.f_bavail * (double)v.f_frsize;
+        const double free_bytes = (double)v.f_bavail * (double)v.f_frsize + need->replaced;
         if (need->disk > free_bytes) {
             log_msg(log, severity, CAT,
                     "the run writes up to %.4g MB into %s (output %.4g MB, field snapshots %.4g MB, checkpoints "
-                    "%.4g MB), the file system has %.4g MB free: write fewer snapshots (run.field_interval, "
+                    "%.4g MB), the file system has %.4g MB free (with the files the run replaces): write fewer snapshots (run.field_interval, "
                     "run.fields), fewer rows (run.output_interval) or to another folder",
                     need->disk / 1e6, folder, need->output / 1e6, need->fields / 1e6, 2.0 * need->checkpoint / 1e6,
                     free_bytes / 1e6);

@@ -24,6 +24,8 @@ typedef struct {
     double fields;      /* bytes of the field snapshots (0: none) */
     double checkpoint;  /* bytes of one checkpoint (0: none asked for) */
     double disk;        /* output + fields + 2 checkpoints */
+    double replaced;    /* bytes of files there now that the run replaces (its output, field file and
+                         * checkpoint: a restart into the folder of a run stopped by a full disk) */
 } resources_need_t;
 
 /* What the scene needs for a run to t_end; checkpoints: whether the run

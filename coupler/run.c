@@ -365,8 +365,16 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         resources_need_t need;
         char folder[4096];
         resources_folder(opt->output, folder, sizeof folder);
-        if (resources_need(scene, t_end, opt->checkpoint_every > 0.0, log, &need) != STATUS_OK ||
-            resources_compare(&need, folder, STATUS_ERROR, log) > 0) {
+        const status_t nst = resources_need(scene, t_end, opt->checkpoint_every > 0.0, log, &need);
+        const char *replaced[3] = {opt->output, m.cp_path, m.fields};
+        for (int k = 0; k < 3; k++) {
+            struct stat sb;
+            if (replaced[k][0] != '\0' && stat(replaced[k], &sb) == 0 && S_ISREG(sb.st_mode) &&
+                (opt->restart == NULL || !same_file(replaced[k], opt->restart))) {
+                need.replaced += (double)sb.st_size;
+            }
+        }
+        if (nst != STATUS_OK || resources_compare(&need, folder, STATUS_ERROR, log) > 0) {
             log_msg(log, STATUS_ERROR, CAT, "%s: not run, nothing written", scene->path);
             goto done;
         }
