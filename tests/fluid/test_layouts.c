@@ -234,6 +234,13 @@ static void test_in_place_multireflection_at_omega_minus_one(void)
     CU_ASSERT(fscale > 0.0 && dload < 1e-11);
 }
 
+/* Whether grid cell i is an interior cell. */
+static int interior(const fluid_t *fl, size_t i)
+{
+    const size_t sx = (size_t)fl->g.s[0], sy = (size_t)fl->g.s[1];
+    return grid_is_interior(&fl->g, (int)(i % sx), (int)(i / sx % sy), (int)(i / (sx * sy)));
+}
+
 /* The value of every population of the interior solid cells set to v
  * (all: every slot each sends; else the rest population alone, the one slot
  * a cell owns in both in-place states). */
@@ -242,9 +249,7 @@ static void set_solid(fluid_t *fl, double v, int all)
     const pops_t p = fluid_pops(fl);
     for (size_t j = 0; j < fl->spheres.nsolid; j++) {
         const size_t i = fl->spheres.solid[j];
-        int X[3] = {(int)(i % (size_t)fl->g.s[0]), (int)(i / (size_t)fl->g.s[0] % (size_t)fl->g.s[1]),
-                    (int)(i / ((size_t)fl->g.s[0] * (size_t)fl->g.s[1]))};
-        if (!grid_is_interior(&fl->g, X[0], X[1], X[2])) {
+        if (!interior(fl, i)) {
             continue;
         }
         for (int q = 0; q < (all ? LB_Q : 1); q++) {
@@ -306,9 +311,7 @@ static void test_in_place_leaves_solid_cells_alone(void)
         long kept = 0, both = 0;
         for (size_t j = 0; j < fl->spheres.nsolid; j++) {
             const size_t i = fl->spheres.solid[j];
-            int X[3] = {(int)(i % (size_t)fl->g.s[0]), (int)(i / (size_t)fl->g.s[0] % (size_t)fl->g.s[1]),
-                        (int)(i / ((size_t)fl->g.s[0] * (size_t)fl->g.s[1]))};
-            if (was[i] && grid_is_interior(&fl->g, X[0], X[1], X[2])) {
+            if (was[i] && interior(fl, i)) {
                 both++;
                 kept += pops_post(&p, 0, i) == 7.0;
             }
