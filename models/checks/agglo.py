@@ -11,7 +11,10 @@ Every check returns (ok, lines) and starts with the sanity part:
 The momentum balance of the free bodies (balance_at):
   The rows k-1, k one communication step h apart: the rigid step from t_{k-1} to t_k
   used the hydrodynamic loads stored in row k (load correction off in coupled runs;
-  contacts between bodies and the connection loads are internal and cancel), so
+  contacts between bodies and the connection loads are internal and cancel; not the
+  torques about the origin of a contact across a periodic face, whose two points lie a
+  period L e apart: L then changes by L e x J with J the contact's impulse, physics of
+  the periodic box, not an error, and this balance does not hold for such a step), so
       P_k - P_{k-1} = h sum_i F_i[k]                                      (exact)
       L_k - L_{k-1} = h sum_i (x_i^mid x F_i[k] + T_i[k])                 (2nd order)
   with P, L the totals of /bodies/momentum, /bodies/angular_momentum (about the
