@@ -30,7 +30,14 @@
  *   matching status; never stderr. Errors are always sent, other messages
  *   according to fmi2SetDebugLogging and the categories (fmi_log_categories).
  *
- * No global mutable state: any number of instances may coexist. */
+ * - Instances: fmi2Instantiate registers the instance it returns, and every
+ *   entry point looks its handle up in that registry (fmi_instance.c) before
+ *   reading anything behind it: a handle freed already (a second
+ *   fmi2FreeInstance, a call after it) or never returned is answered with
+ *   fmi2Error, and fmi2FreeInstance ignores it.
+ *
+ * No global mutable state but that registry: any number of instances may
+ * coexist. */
 #include "fmi_internal.h"
 
 #include <ctype.h>
@@ -171,7 +178,6 @@ static void free_instance(inst_t *in)
     free(in->made_with);
     free(in->scene_path);
     free(in->name);
-    in->magic = 0;
     free(in);
 }
 
@@ -193,7 +199,6 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         }
         return NULL;
     }
-    in->magic = INSTANCE_MAGIC;
     in->model = &FMI_MODEL;
     in->logger = functions->logger;
     in->env = functions->componentEnvironment;
@@ -268,6 +273,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     }
     fmi_trace(in, fn, "instanceName=%s, fmuGUID=%s, fmuResourceLocation=%s, loggingOn=%d", instanceName, fmuGUID,
               fmuResourceLocation, loggingOn);
+    fmi_instance_add(in);
     return in;
 fail:
     free_instance(in);
@@ -276,8 +282,10 @@ fail:
 
 void fmi2FreeInstance(fmi2Component c)
 {
-    /* legal in every state: a master must be able to release an FMU it gave up on */
-    inst_t *in = fmi_instance(c);
+    /* legal in every state: a master must be able to release an FMU it gave
+     * up on. Taken out of the registry first, so a second call (or one from
+     * another thread at the same time) finds nothing and does nothing. */
+    inst_t *in = fmi_instance_take(c);
     if (in == NULL) {
         return;
     }

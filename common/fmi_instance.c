@@ -1,8 +1,17 @@
 /* fmi_instance.c — the generic FMI layer's logging, call-order and
- * argument checks, and the native component (fmi_internal.h). */
+ * argument checks, the registry of live instances, and the native component
+ * (fmi_internal.h).
+ *
+ * The registry is the one piece of global state of an FMU library: a list of
+ * the live instances under a mutex (masters may call different instances
+ * from different threads). A handle is compared with the registered
+ * addresses and only then dereferenced: a magic number inside the instance
+ * cannot tell a freed one, since reading freed memory is undefined, and the
+ * store that cleared it before free() was removed by the optimiser. */
 #include "fmi_internal.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -108,10 +117,55 @@ __attribute__((format(printf, 3, 4))) void fmi_trace(const inst_t *in, const cha
 /* ------------------------------------------------------------------------ */
 /* Instance and state checks                                                 */
 
+static pthread_mutex_t live_lock = PTHREAD_MUTEX_INITIALIZER;
+static inst_t *live_head; /* guarded by live_lock */
+
+void fmi_instance_add(inst_t *in)
+{
+    pthread_mutex_lock(&live_lock);
+    in->live_next = live_head;
+    live_head = in;
+    pthread_mutex_unlock(&live_lock);
+}
+
+/* The registry's link to c (NULL when c is not live); live_lock held. */
+static inst_t **live_link(fmi2Component c)
+{
+    for (inst_t **p = &live_head; *p != NULL; p = &(*p)->live_next) {
+        if ((void *)*p == c) {
+            return p;
+        }
+    }
+    return NULL;
+}
+
 inst_t *fmi_instance(fmi2Component c)
 {
-    inst_t *in = c;
-    return in != NULL && in->magic == INSTANCE_MAGIC ? in : NULL;
+    if (c == NULL) {
+        return NULL;
+    }
+    pthread_mutex_lock(&live_lock);
+    inst_t **p = live_link(c);
+    inst_t *in = p != NULL ? *p : NULL;
+    pthread_mutex_unlock(&live_lock);
+    return in;
+}
+
+inst_t *fmi_instance_take(fmi2Component c)
+{
+    if (c == NULL) {
+        return NULL;
+    }
+    pthread_mutex_lock(&live_lock);
+    inst_t **p = live_link(c);
+    inst_t *in = NULL;
+    if (p != NULL) {
+        in = *p;
+        *p = in->live_next;
+        in->live_next = NULL;
+    }
+    pthread_mutex_unlock(&live_lock);
+    return in;
 }
 
 static void state_list(int mask, char *buf, size_t n)

@@ -18,7 +18,6 @@
 
 #include <stddef.h>
 
-#define INSTANCE_MAGIC 0x53504649u /* "SPFI": tells an instance from a stray pointer */
 #define STATE_MAGIC "SPHFMUS1"
 #define TIME_TOL 1e-9 /* relative round-off allowed on communication points */
 
@@ -68,8 +67,9 @@ enum {
 
 typedef struct fmu_state fmu_state_t;
 
-typedef struct {
-    unsigned magic;
+typedef struct inst inst_t;
+struct inst {
+    inst_t *live_next; /* the registry of live instances (fmi_instance.c) */
     char *name;
     const fmi_model_t *model; /* the model this FMU was built with (fmi_adapter.c) */
     fmi2CallbackLogger logger;
@@ -91,7 +91,7 @@ typedef struct {
     double t, t_start, t_stop;
     int has_stop;
     fmu_state_t *lazy_states; /* the states whose native part is still comp itself */
-} inst_t;
+};
 
 /* An FMU state (fmi_state.c): header and values, then the component's
  * native state. fmi2GetFMUstate copies the header and values at once but
@@ -129,8 +129,16 @@ __attribute__((format(printf, 4, 5))) fmi2Status fmi_report(const inst_t *in, st
 /* "fn(arguments)" in the logFmiCalls category, when it is on. */
 __attribute__((format(printf, 3, 4))) void fmi_trace(const inst_t *in, const char *fn, const char *fmt, ...);
 
-/* Checks (fmi_instance.c). The instance behind c, or NULL for a stray pointer. */
+/* The registry of live instances (fmi_instance.c), one per FMU library and
+ * guarded by a mutex: an instance is added when fmi2Instantiate succeeds and
+ * taken out by fmi2FreeInstance. A handle is looked up by its address before
+ * anything behind it is read, so a freed or stray pointer is never touched.
+ * fmi_instance: the live instance behind c, or NULL (also for NULL).
+ * fmi_instance_take: the same, and removed from the registry (to be freed);
+ * a second take of one instance gives NULL. */
+void fmi_instance_add(inst_t *in);
 inst_t *fmi_instance(fmi2Component c);
+inst_t *fmi_instance_take(fmi2Component c);
 /* 1 (logged) when the instance's state is not in mask. */
 int fmi_illegal(const inst_t *in, const char *fn, int mask);
 /* The name of a state (one bit of the masks), as the messages give it. */
@@ -139,8 +147,10 @@ const char *fmi_state_name(int state);
 int fmi_bad_refs(const inst_t *in, const char *fn, const fmi2ValueReference vr[], size_t nvr, const void *values,
                  fmi_type_t type);
 
-/* The start of every entry point on an instance: a stray pointer or a call
- * in a state the function is not legal in returns fmi2Error (logged). */
+/* The start of every entry point on an instance: a handle that is not a live
+ * instance (never one, or freed) returns fmi2Error, with nothing logged (its
+ * logger is unknown); a call in a state the function is not legal in returns
+ * fmi2Error (logged). */
 #define BEGIN(fn, mask)                      \
     inst_t *in = fmi_instance(c);                \
     if (in == NULL) {                        \

@@ -20,7 +20,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.validation import validate_fmu
 
-from conftest import MODELS, run
+from conftest import MODELS, PY, run
 
 SCENE = """\
 domain:
@@ -416,6 +416,73 @@ def test_illegal_calls_are_errors_not_crashes(fmus, tmp_path):
     s.init()
     f.doStep(0.0, DT)
     s.close()
+
+
+# Run in its own process: on a handle that is not a live instance the old
+# layer read and freed freed memory, which may crash the interpreter.
+STALE_HANDLES = r"""
+import ctypes, sys
+import fmpy
+from fmpy.fmi2 import FMU2Slave
+
+def slave(fmu, name):
+    md = fmpy.read_model_description(fmu)
+    s = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(fmu), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName=name)
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    s.doStep(0.0, float(sys.argv[3]))
+    lib = ctypes.CDLL(s.dll._name)  # the raw entry points: fmpy raises on fmi2Error
+    lib.fmi2DoStep.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int]
+    lib.fmi2GetReal.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t,
+                                ctypes.POINTER(ctypes.c_double)]
+    lib.fmi2FreeInstance.argtypes = [ctypes.c_void_p]
+    lib.fmi2FreeInstance.restype = None
+    return s, lib
+
+def refused(lib, c, h):
+    vr, x = (ctypes.c_uint * 1)(0), (ctypes.c_double * 1)()
+    return lib.fmi2DoStep(c, h, h, 1) == 3 and lib.fmi2GetReal(c, vr, 1, x) == 3  # fmi2Error
+
+h = float(sys.argv[3])
+fluid, flib = slave(sys.argv[1], "f")
+rigid, rlib = slave(sys.argv[2], "r")
+keep, _ = slave(sys.argv[2], "k")
+c = rigid.component
+# freed memory that still holds the instance's bytes, as an allocator may leave it
+stale = ctypes.create_string_buffer(ctypes.string_at(c, 256), 256)
+rlib.fmi2FreeInstance(c)
+rlib.fmi2FreeInstance(c)  # a second free: ignored
+print("freed handle refused:", refused(rlib, c, h), flush=True)
+print("stale bytes refused:", refused(rlib, ctypes.addressof(stale), h), flush=True)
+rlib.fmi2FreeInstance(ctypes.addressof(stale))  # ignored, not freed
+print("other FMU's instance refused:", refused(flib, keep.component, h), flush=True)
+keep.doStep(h, h)  # the other rigid instance lives on
+keep.freeInstance()
+fluid.doStep(h, h)
+fluid.freeInstance()
+print("end", flush=True)
+"""
+
+
+def test_freed_or_stray_instance_is_refused(fmus, tmp_path):
+    """A second fmi2FreeInstance, and any call on a freed handle or on a
+    pointer that was never an instance of this FMU, is refused with fmi2Error
+    (fmi2FreeInstance: ignored) without reading what is behind it
+    (common/fmi_instance.c, the registry of live instances). Before, a magic
+    number inside the freed block was checked, and its clearing store was
+    removed by -O3: valgrind saw 12 invalid free() of a second
+    fmi2FreeInstance; here the bytes of a freed instance kept in a buffer
+    stand for that freed block."""
+    script = tmp_path / "stale.py"
+    script.write_text(STALE_HANDLES)
+    p = subprocess.run([PY, script, fmus["free"] / "fluid.fmu", fmus["free"] / "rigid.fmu", repr(DT)],
+                       capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert p.returncode == 0, f"exit {p.returncode}: {p.stdout}{p.stderr[-2000:]}"
+    assert p.stdout.splitlines() == ["freed handle refused: True", "stale bytes refused: True",
+                                     "other FMU's instance refused: True", "end"], p.stdout
 
 
 def test_guid_and_resources_are_checked(fmus, tmp_path):
