@@ -160,6 +160,11 @@ static fmi2Status check_blob(const inst_t *in, const char *fn, const unsigned ch
         return fmi_fail(in, fn, "the FMU state is inconsistent (%zu bytes, %llu variables, component %llu bytes)", size,
                         (unsigned long long)h->nvars, (unsigned long long)h->comp_size);
     }
+    if (!isfinite(h->t) || !isfinite(h->t_start) || (h->has_stop != 0 && h->has_stop != 1) ||
+        (h->has_stop && !isfinite(h->t_stop))) {
+        return fmi_fail(in, fn, "the FMU state is corrupt: time %g s, start time %g s, stop time %g s (has_stop %d); "
+                        "allowed: finite times", h->t, h->t_start, h->t_stop, (int)h->has_stop);
+    }
     return fmi2OK;
 }
 

@@ -54,6 +54,7 @@
 #include "../common/h5fields.h"
 #include "fluid.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -611,12 +612,16 @@ static status_t fluid_fmi_state_restore(void *comp, const void *buf, size_t size
 {
     fluid_fmi_t *m = comp;
     status_t st = fluid_state_restore(m->fl, buf, size);
-    const double dt = fluid_units(m->fl)->dt, t = fluid_time(m->fl);
-    m->next_field = m->fields != NULL ? scene_next_multiple(0, fmax(m->scene->run.field_interval, dt), t + 1e-9 * dt) : 0;
-    if (st < STATUS_ERROR && m->fields != NULL) {
-        st = status_worst(st, h5fields_drop_after(m->fields, fluid_step_count(m->fl)));
+    if (st >= STATUS_ERROR) {
+        return st; /* refused: the component is as it was */
     }
-    return st;
+    if (m->fields == NULL) {
+        m->next_field = 0;
+        return st;
+    }
+    const double dt = fluid_units(m->fl)->dt;
+    m->next_field = scene_next_multiple(0, fmax(m->scene->run.field_interval, dt), fluid_time(m->fl) + 1e-9 * dt);
+    return status_worst(st, h5fields_drop_after(m->fields, fluid_step_count(m->fl)));
 }
 
 const fmi_model_t fluid_fmi_model = {

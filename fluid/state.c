@@ -7,11 +7,27 @@
  * the sphere records, the list of solid cells (the map stage needs the
  * previous solid set to find uncovered cells) and the pre-collision pairs
  * the links keep for multireflection (spheres.h). Links are rebuilt by the
- * next step, which gives them their pairs back. Same build, same scene. */
+ * next step, which gives them their pairs back. Same build, same scene.
+ *
+ * A restore checks everything it reads before it uses any of it (a flipped
+ * bit, a damaged checkpoint file, bytes handed in through
+ * fmi2DeSerializeFMUstate): the counts against the grid and the buffer, the
+ * cell flags (fluid, solid or ghost, the ghost layer as this grid has it,
+ * as many solid cells as listed), every solid cell's index (within the grid,
+ * a solid cell), the sphere records (what the scene fixes equal to this
+ * instance's, the rest finite and centres where a centre can be) and the
+ * pairs section (as many bytes as are left, keys in order, finite values).
+ * A refused state names the part that is wrong and leaves the component as
+ * it was. The populations are not checked: a non-finite one is found by the
+ * step's own detectors (fluid.c), with step, cell and position. */
 #include "fluid_internal.h"
 
 #include "lattice.h"
 
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -82,6 +98,185 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
     return STATUS_OK;
 }
 
+/* ------------------------------------------------------------------------ */
+/* Checks of a state's contents (fluid_state_restore)                         */
+
+/* The step counter: from 0 to 2^53, beyond which step * dt is not exact. */
+#define STATE_STEP_MAX ((int64_t)1 << 53)
+/* Lattice coordinates of a centre off the periodic axes: within 2^30 cells
+ * (the cells' coordinates near it are ints). */
+#define STATE_CENTRE_MAX 1073741824.0
+
+static status_t corrupt(const fluid_t *fl, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+static status_t corrupt(const fluid_t *fl, const char *fmt, ...)
+{
+    char msg[1500];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return log_msg(&fl->log, STATUS_ERROR, "fluid", "the state is corrupt and was not restored: %s", msg);
+}
+
+static int all_finite(const double *x, size_t n)
+{
+    for (size_t k = 0; k < n; k++) {
+        if (!isfinite(x[k])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Cell flags: 0 fluid, 1 solid, 2 ghost; the ghost cells those of this
+ * grid (set at creation, never changed); the solid ones counted. */
+static status_t check_flags(const fluid_t *fl, const uint8_t *flags, size_t *nsolid)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < fl->g.ncells; i++) {
+        const unsigned v = cellflags_get(flags, i), mine = cellflags_get(fl->flags, i);
+        if (v > CELL_GHOST || (v == CELL_GHOST) != (mine == CELL_GHOST)) {
+            const size_t sx = (size_t)fl->g.s[0], sy = (size_t)fl->g.s[1];
+            return corrupt(fl, "cell flags: cell %zu (allocated x %zu, y %zu, z %zu) has flag %u; allowed: %s", i,
+                           i % sx, i / sx % sy, i / (sx * sy), v,
+                           mine == CELL_GHOST ? "2 (a ghost cell of this grid)" : "0 (fluid) or 1 (solid)");
+        }
+        n += v == CELL_SOLID;
+    }
+    *nsolid = n;
+    return STATUS_OK;
+}
+
+/* The list of solid cells: each an index of this grid whose flag is solid.
+ * (With as many listed as flagged, checked by the caller.) */
+static status_t check_solid(const fluid_t *fl, const uint8_t *flags, const unsigned char *list, size_t nsolid)
+{
+    for (size_t j = 0; j < nsolid; j++) {
+        size_t i;
+        memcpy(&i, list + j * sizeof i, sizeof i);
+        if (i >= fl->g.ncells) {
+            return corrupt(fl, "solid cell %zu of %zu has index %zu; allowed: below %zu, the cells of this grid", j,
+                           nsolid, i, fl->g.ncells);
+        }
+        if (cellflags_get(flags, i) != CELL_SOLID) {
+            return corrupt(fl, "solid cell %zu of %zu (index %zu) has flag %u, not 1 (solid)", j, nsolid, i,
+                           cellflags_get(flags, i));
+        }
+    }
+    return STATUS_OK;
+}
+
+/* A sphere record: what the scene fixes (body, motion, radius, density
+ * ratio, coupling, prescribed motion) as in this instance, made from the
+ * same scene; the kinematics, loads and watch finite; the centre where the
+ * component keeps it (wrapped into the box on periodic axes). */
+_Static_assert(offsetof(sphere_t, amp_grow0) == offsetof(sphere_t, hist) + 26 * sizeof(double) &&
+                   offsetof(sphere_t, zr) == offsetof(sphere_t, zt) + sizeof(double),
+               "check_sphere reads hist .. amp_grow0 and zt, zr as runs of doubles");
+
+static status_t check_sphere(const fluid_t *fl, int k, const sphere_t *p)
+{
+    const sphere_t *mine = &fl->spheres.s[k];
+    if (p->body != mine->body || p->motion != mine->motion || p->averaging != mine->averaging) {
+        return corrupt(fl, "sphere %d: body %d, motion %d, averaging %d; this scene: body %d, motion %d, averaging %d",
+                       k, p->body, p->motion, p->averaging, mine->body, mine->motion, mine->averaging);
+    }
+    static const struct {
+        const char *name;
+        size_t offset, n;
+    } fixed[] = {
+        {"radius", offsetof(sphere_t, r), 1},
+        {"density ratio", offsetof(sphere_t, density_ratio), 1},
+        {"coupling number", offsetof(sphere_t, kappa_risky), 1},
+        {"initial centroid", offsetof(sphere_t, cb0), 3},
+        {"initial offset from the centroid", offsetof(sphere_t, rel0), 3},
+        {"prescribed velocity", offsetof(sphere_t, vbody), 3},
+    };
+    for (size_t m = 0; m < sizeof fixed / sizeof fixed[0]; m++) {
+        const double *a = (const double *)(const void *)((const char *)p + fixed[m].offset);
+        const double *b = (const double *)(const void *)((const char *)mine + fixed[m].offset);
+        for (size_t d = 0; d < fixed[m].n; d++) {
+            if (memcmp(&a[d], &b[d], sizeof(double)) != 0) {
+                return corrupt(fl, "sphere %d: its %s (lattice units, component %zu) is %.17g, this scene's %.17g", k,
+                               fixed[m].name, d, a[d], b[d]);
+            }
+        }
+    }
+    static const struct {
+        const char *name;
+        size_t offset, n;
+    } finite[] = {
+        {"centre", offsetof(sphere_t, c), 3},
+        {"velocity", offsetof(sphere_t, v), 3},
+        {"angular velocity", offsetof(sphere_t, w), 3},
+        {"force", offsetof(sphere_t, f), 3},
+        {"torque", offsetof(sphere_t, t), 3},
+        {"previous force", offsetof(sphere_t, fprev), 3},
+        {"previous torque", offsetof(sphere_t, tprev), 3},
+        {"drag coefficients", offsetof(sphere_t, zt), 2},
+        {"centre at the last map", offsetof(sphere_t, cmap), 3},
+        {"period-2 watch", offsetof(sphere_t, hist), 18 + 6 + 3},
+    };
+    for (size_t m = 0; m < sizeof finite / sizeof finite[0]; m++) {
+        const double *a = (const double *)(const void *)((const char *)p + finite[m].offset);
+        if (!all_finite(a, finite[m].n)) {
+            return corrupt(fl, "sphere %d: %s not finite", k, finite[m].name);
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        const double lo = fl->spheres.periodic[a] ? 0.5 : -STATE_CENTRE_MAX,
+                     hi = fl->spheres.periodic[a] ? fl->spheres.N[a] + 0.5 : STATE_CENTRE_MAX;
+        if (!(p->c[a] >= lo && p->c[a] <= hi) || !(fabs(p->cmap[a]) <= STATE_CENTRE_MAX)) {
+            return corrupt(fl, "sphere %d: its centre %c = %.17g cells (at the last map %.17g); allowed: %.17g to %.17g",
+                           k, "xyz"[a], p->c[a], p->cmap[a], lo, hi);
+        }
+    }
+    if (p->nhist < 0 || p->nhist > 3 || p->nalt < 0 || p->ngrow < 0 || (p->warned != 0 && p->warned != 1)) {
+        return corrupt(fl, "sphere %d: period-2 watch counts %d, %d, %d, %d out of range", k, p->nhist, p->nalt,
+                       p->ngrow, p->warned);
+    }
+    return STATUS_OK;
+}
+
+/* The pairs section: a count per sphere (none unless the scheme keeps
+ * pairs), then that many (key, pair) records in increasing key order, with
+ * keys as link_key makes them (sphere_links.c: q below 19, 53 bits), and
+ * exactly the bytes left. */
+static status_t check_pairs(const fluid_t *fl, const unsigned char *buf, size_t size, int nspheres)
+{
+    const size_t used = spheres_pairs_size(buf, size, nspheres);
+    if (used == (size_t)-1) {
+        return corrupt(fl, "the pre-collision pairs of the boundary links do not fit in the %zu bytes left for them",
+                       size);
+    }
+    if (used != size) {
+        return corrupt(fl, "the pre-collision pairs of the boundary links take %zu of the %zu bytes left for them",
+                       used, size);
+    }
+    for (int k = 0; k < nspheres; k++) {
+        uint64_t m;
+        memcpy(&m, buf, sizeof m);
+        buf += sizeof m;
+        if (m > 0 && fl->spheres.scheme != BOUNDARY_MULTIREFLECTION) {
+            return corrupt(fl, "sphere %d has %llu pre-collision pairs; this scene's boundary scheme keeps none", k,
+                           (unsigned long long)m);
+        }
+        uint64_t last = 0;
+        for (uint64_t j = 0; j < m; j++, buf += sizeof(spheres_carry_t)) {
+            spheres_carry_t c;
+            memcpy(&c, buf, sizeof c);
+            if ((c.key & 31u) >= LB_Q || (c.key >> 53) != 0 || (j > 0 && c.key <= last) || !all_finite(c.pre, 2)) {
+                return corrupt(fl, "pre-collision pair %llu of sphere %d: key %#llx (after %#llx), values %g, %g",
+                               (unsigned long long)j, k, (unsigned long long)c.key, (unsigned long long)last, c.pre[0],
+                               c.pre[1]);
+            }
+            last = c.key;
+        }
+    }
+    return STATUS_OK;
+}
+
 status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
 {
     state_header_t h;
@@ -98,8 +293,19 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
                        fl->g.n[0], fl->g.n[1], fl->g.n[2], fl->spheres.n,
                        fl->streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place", fl->single ? "single" : "double");
     }
-    if (h.layout != LAYOUT_PULL && h.layout != LAYOUT_SWAPPED && h.layout != LAYOUT_PUSHED) {
-        return log_msg(&fl->log, STATUS_ERROR, "fluid", "the state names layout state %d (0 to 2 expected)", h.layout);
+    if (fl->streaming == STREAMING_TWO_ARRAY ? h.layout != LAYOUT_PULL
+                                             : h.layout != LAYOUT_SWAPPED && h.layout != LAYOUT_PUSHED) {
+        return corrupt(fl, "layout state %d; allowed with fluid.streaming %s: %s", h.layout,
+                       fl->streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place",
+                       fl->streaming == STREAMING_TWO_ARRAY ? "0 (pull)" : "1 or 2 (swapped, pushed)");
+    }
+    if (h.step < 0 || h.step > STATE_STEP_MAX || h.covered < 0 || h.uncovered < 0 || (h.first != 0 && h.first != 1)) {
+        return corrupt(fl, "step %lld (allowed: 0 to 2^53), cells covered %lld and uncovered %lld (>= 0), first map %d "
+                       "(0 or 1)", (long long)h.step, (long long)h.covered, (long long)h.uncovered, (int)h.first);
+    }
+    if (h.nsolid > fl->g.ncells || (h.first && h.nsolid > 0)) {
+        return corrupt(fl, "%llu solid cells; allowed: 0 to the %zu cells of the grid, none before the first step",
+                       (unsigned long long)h.nsolid, fl->g.ncells);
     }
     const size_t fbytes = (size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl);
     const size_t need = sizeof h + (size_t)fluid_arrays(fl) * fbytes + cellflags_bytes(fl->g.ncells) + (size_t)h.nspheres * sizeof(sphere_t) +
@@ -108,10 +314,29 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "state of %zu bytes is shorter than its %zu bytes", size,
                        need);
     }
-    /* the pairs: a count per sphere, then that many records, within the buffer */
-    if (spheres_pairs_size((const unsigned char *)buf + need, size - need, h.nspheres) == (size_t)-1) {
-        return log_msg(&fl->log, STATUS_ERROR, "fluid",
-                       "state of %zu bytes ends inside the pre-collision pairs of its boundary links", size);
+    const unsigned char *pops = (const unsigned char *)buf + sizeof h;
+    const uint8_t *flags = pops + (size_t)fluid_arrays(fl) * fbytes;
+    const unsigned char *recs = flags + cellflags_bytes(fl->g.ncells);
+    const unsigned char *solid = recs + (size_t)h.nspheres * sizeof(sphere_t);
+    const unsigned char *pairs = solid + (size_t)h.nsolid * sizeof(size_t);
+    size_t nflagged = 0;
+    status_t st = check_flags(fl, flags, &nflagged);
+    if (st == STATUS_OK && nflagged != h.nsolid) {
+        st = corrupt(fl, "%zu cells are flagged solid and %llu are listed", nflagged, (unsigned long long)h.nsolid);
+    }
+    if (st == STATUS_OK) {
+        st = check_solid(fl, flags, solid, (size_t)h.nsolid);
+    }
+    for (int k = 0; k < h.nspheres && st == STATUS_OK; k++) {
+        sphere_t p;
+        memcpy(&p, recs + (size_t)k * sizeof p, sizeof p);
+        st = check_sphere(fl, k, &p);
+    }
+    if (st == STATUS_OK) {
+        st = check_pairs(fl, pairs, size - need, h.nspheres);
+    }
+    if (st != STATUS_OK) {
+        return st;
     }
     if (h.nsolid > fl->spheres.cap_solid) {
         size_t *ns = realloc(fl->spheres.solid, h.nsolid * sizeof(size_t));
@@ -122,24 +347,20 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
         fl->spheres.solid = ns;
         fl->spheres.cap_solid = h.nsolid;
     }
-    const unsigned char *p = buf;
-    p += sizeof h;
+    const unsigned char *p = pops;
     for (int k = 0; k < fluid_arrays(fl); k++) {
         memcpy(fl->f[k == 0 ? fl->cur : 1 - fl->cur], p, fbytes);
         p += fbytes;
     }
     fl->layout = (layout_state_t)h.layout;
-    memcpy(fl->flags, p, cellflags_bytes(fl->g.ncells));
-    p += cellflags_bytes(fl->g.ncells);
+    memcpy(fl->flags, flags, cellflags_bytes(fl->g.ncells));
     if (h.nspheres > 0) {
-        memcpy(fl->spheres.s, p, (size_t)h.nspheres * sizeof(sphere_t));
-        p += (size_t)h.nspheres * sizeof(sphere_t);
+        memcpy(fl->spheres.s, recs, (size_t)h.nspheres * sizeof(sphere_t));
     }
     if (h.nsolid > 0) {
-        memcpy(fl->spheres.solid, p, h.nsolid * sizeof(size_t));
-        p += h.nsolid * sizeof(size_t);
+        memcpy(fl->spheres.solid, solid, h.nsolid * sizeof(size_t));
     }
-    if (!spheres_pairs_in(&fl->spheres, p)) {
+    if (!spheres_pairs_in(&fl->spheres, pairs)) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory restoring the pre-collision pairs of the links");
     }
     fl->spheres.nsolid = h.nsolid;

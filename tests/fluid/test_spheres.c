@@ -565,6 +565,147 @@ static void test_state_restore_bit_identical(void)
     fluid_free(r);
 }
 
+/* The header of a fluid state (fluid/state.c, state_header_t), to corrupt
+ * its fields one at a time. */
+typedef struct {
+    uint64_t magic;
+    int32_t n[3];
+    int32_t nspheres;
+    int64_t step;
+    uint64_t ncells;
+    uint64_t nsolid;
+    int64_t covered, uncovered;
+    int32_t first;
+    int16_t streaming, layout;
+    int32_t single, pad;
+} state_header_copy_t;
+
+/* buf with len bytes at off replaced by v: refused with expect in the message. */
+static void expect_refused(fluid_t *r, const test_log_t *tl, const unsigned char *buf, size_t n, size_t off,
+                           const void *v, size_t len, const char *expect)
+{
+    unsigned char *c = malloc(n);
+    CU_ASSERT_FATAL(c != NULL);
+    memcpy(c, buf, n);
+    memcpy(c + off, v, len);
+    const status_t st = fluid_state_restore(r, c, n);
+    const int named = strstr(tl->last, expect) != NULL;
+    if (st != STATUS_ERROR || !named) {
+        printf("\n    corrupted at byte %zu: status %d, expected an error naming '%s'; last message: %s", off, (int)st,
+               expect, tl->last);
+    }
+    CU_ASSERT_EQUAL(st, STATUS_ERROR);
+    CU_ASSERT(named);
+    free(c);
+}
+
+/* Every part of a state the restore checks, corrupted one at a time (the
+ * tester's case: one solid-cell index set to 2^62, which crashed the next
+ * step), is refused with a message naming the part, and the component
+ * refusing it is left as it was; the state itself restores. */
+static void test_state_corruption_refused(void)
+{
+    scene_t s = test_box(16, 14, 12, 0.7, COLLISION_TRT);
+    s.domain.faces[4].type = s.domain.faces[5].type = FACE_NO_SLIP; /* ghost cells at z = 0 and 13 */
+    const double c[3] = {8.2, 6.9, 6.1};
+    harness_one_sphere(&s, c, 3.3, MOTION_PRESCRIBED)->velocity[0] = 0.03;
+    s.fluid.boundary_scheme = BOUNDARY_MULTIREFLECTION; /* the links keep pre-collision pairs */
+    fluid_t *a = test_fluid(&s);
+    test_run(a, 20);
+    const size_t n = fluid_state_size(a);
+    unsigned char *buf = malloc(n);
+    CU_ASSERT_FATAL(buf != NULL);
+    CU_ASSERT_EQUAL_FATAL(fluid_state_save(a, buf, n), STATUS_OK);
+    test_log_t tl;
+    memset(&tl, 0, sizeof tl);
+    log_t l = test_log(&tl);
+    fluid_t *r = NULL;
+    CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &r), STATUS_OK);
+    const size_t n0 = fluid_state_size(r);
+    unsigned char *fresh = malloc(n0), *after = malloc(n0);
+    CU_ASSERT_FATAL(fresh != NULL && after != NULL);
+    CU_ASSERT_EQUAL(fluid_state_save(r, fresh, n0), STATUS_OK);
+
+    /* where the parts are (fluid/state.c's layout) */
+    const grid_t *g = &a->g;
+    const size_t nsolid = a->spheres.nsolid, fbytes = (size_t)LB_Q * g->stride * sizeof(double);
+    const size_t off_flags = sizeof(state_header_copy_t) + fbytes, off_sph = off_flags + cellflags_bytes(g->ncells);
+    const size_t off_solid = off_sph + sizeof(sphere_t), off_pairs = off_solid + nsolid * sizeof(size_t);
+    CU_ASSERT_FATAL(off_pairs + spheres_pairs_bytes(&a->spheres) == n);
+    uint64_t npairs;
+    memcpy(&npairs, buf + off_pairs, sizeof npairs);
+    CU_ASSERT_FATAL(nsolid > 10 && npairs >= 2);
+    const size_t fluid_cell = grid_index(g, 1, 1, 1), ghost_cell = grid_index(g, 1, 1, 0);
+    CU_ASSERT_FATAL(cellflags_get(a->flags, fluid_cell) == CELL_FLUID);
+    CU_ASSERT_FATAL(cellflags_get(a->flags, ghost_cell) == CELL_GHOST);
+
+    /* the header */
+    const int64_t neg = -5, huge = (int64_t)1 << 62;
+    const uint64_t many = (uint64_t)1 << 61, one_more = nsolid + 1;
+    const int32_t seven = 7;
+    const int16_t pull = 0;
+    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, step), &neg, 8, "step -5");
+    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, step), &huge, 8, "allowed: 0 to 2^53");
+    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, covered), &neg, 8, "covered -5");
+    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, first), &seven, 4, "first map 7");
+    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, layout), &pull, 2, "layout state 0");
+    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, nsolid), &many, 8, "solid cells; allowed");
+    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, nsolid), &one_more, 8, "are listed");
+    /* the cell flags: 3 is no flag, a ghost cell made fluid, a solid cell not in the list */
+    const unsigned sh_f = (unsigned)(fluid_cell & 1) * 4, sh_g = (unsigned)(ghost_cell & 1) * 4;
+    const unsigned char bf = buf[off_flags + fluid_cell / 2], bg = buf[off_flags + ghost_cell / 2];
+    const unsigned char flag3 = (unsigned char)((bf & ~(0xFu << sh_f)) | (3u << sh_f));
+    const unsigned char solid1 = (unsigned char)((bf & ~(0xFu << sh_f)) | (1u << sh_f));
+    const unsigned char ghost0 = (unsigned char)(bg & ~(0xFu << sh_g));
+    expect_refused(r, &tl, buf, n, off_flags + fluid_cell / 2, &flag3, 1, "has flag 3");
+    expect_refused(r, &tl, buf, n, off_flags + ghost_cell / 2, &ghost0, 1, "a ghost cell of this grid");
+    expect_refused(r, &tl, buf, n, off_flags + fluid_cell / 2, &solid1, 1, "are listed");
+    /* the solid cells: beyond the grid, and a cell that is fluid */
+    const size_t beyond = (size_t)1 << 62, just = g->ncells;
+    expect_refused(r, &tl, buf, n, off_solid, &beyond, 8, "solid cell 0 of");
+    expect_refused(r, &tl, buf, n, off_solid + (nsolid - 1) * 8, &just, 8, "allowed: below");
+    expect_refused(r, &tl, buf, n, off_solid + 8, &fluid_cell, 8, "not 1 (solid)");
+    /* the sphere record: what the scene fixes, and what must be finite or in the box */
+    const double big = 1e300, minus = -3.0, nan = NAN, twice = 6.6;
+    const int body = 3, motion = 7, nhist = 99;
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, r), &twice, 8, "its radius");
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, cb0) + 8, &big, 8, "initial centroid");
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, body), &body, 4, "body 3");
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, motion), &motion, 4, "motion 7");
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, c), &nan, 8, "centre not finite");
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, c), &minus, 8, "centre x = -3");
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, c) + 16, &big, 8, "centre z = 1");
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, v) + 8, &nan, 8, "velocity not finite");
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, f), &nan, 8, "force not finite");
+    expect_refused(r, &tl, buf, n, off_sph + offsetof(sphere_t, nhist), &nhist, 4, "period-2 watch counts 99");
+    /* the links' pairs: a count past the end, a key of no direction, keys out of order, a NaN */
+    const uint64_t count = (uint64_t)1 << 40;
+    uint64_t key0;
+    memcpy(&key0, buf + off_pairs + 8, sizeof key0);
+    const uint64_t badq = (key0 & ~(uint64_t)31) | 25u;
+    expect_refused(r, &tl, buf, n, off_pairs, &count, 8, "do not fit");
+    expect_refused(r, &tl, buf, n, off_pairs + 8, &badq, 8, "pre-collision pair 0 of sphere 0");
+    expect_refused(r, &tl, buf, n, off_pairs + 8 + sizeof(spheres_carry_t), &key0, 8, "pre-collision pair 1");
+    expect_refused(r, &tl, buf, n, off_pairs + 8 + 8, &nan, 8, "pre-collision pair 0");
+    /* bytes beyond the contents */
+    unsigned char *longer = calloc(1, n + 8);
+    CU_ASSERT_FATAL(longer != NULL);
+    memcpy(longer, buf, n);
+    CU_ASSERT_EQUAL(fluid_state_restore(r, longer, n + 8), STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "bytes left for them"));
+    free(longer);
+
+    /* none of them changed the component; the state itself restores */
+    CU_ASSERT_EQUAL(fluid_state_save(r, after, n0), STATUS_OK);
+    CU_ASSERT(memcmp(fresh, after, n0) == 0);
+    CU_ASSERT_EQUAL(fluid_state_restore(r, buf, n), STATUS_OK);
+    free(fresh);
+    free(after);
+    free(buf);
+    fluid_free(a);
+    fluid_free(r);
+}
+
 /* ---- drag coefficients for the implicit coupling --------------------------- */
 
 /* Sum over the three axes of the one-step response of the load to a change
@@ -775,6 +916,7 @@ void spheres_register_tests(int validate)
                 test_moving_sphere_fluctuation);
     CU_add_test(s, "shift across a periodic face: same force", test_shift_across_periodic_face);
     CU_add_test(s, "state save/restore: bit-identical continuation", test_state_restore_bit_identical);
+    CU_add_test(s, "state restore: each corrupted part refused, the component unchanged", test_state_corruption_refused);
     CU_add_test(s, "a sphere moving on a mirror axis: no force across it, no torque (refill ties)",
                 test_mirror_symmetric_motion);
     CU_add_test(s, "a sphere moving more than half a cell per step is refused", test_sphere_speed_limits);

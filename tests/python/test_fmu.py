@@ -8,6 +8,7 @@ import math
 import pathlib
 import platform
 import shutil
+import struct
 import subprocess
 import xml.etree.ElementTree as ET
 import zipfile
@@ -541,6 +542,10 @@ def test_fmu_state_restore_is_bit_identical(fmus, tmp_path, fmu, inputs):
     other.fmu.freeFMUstate(restored)
     # a damaged blob is refused with a message
     other.fails(other.fmu.deSerializeFMUstate, b"garbage" * 20, expect="bad magic")
+    # and so is one whose time is not finite (the header's t, common/fmi_state.c)
+    bad = bytearray(blob)
+    struct.pack_into("<d", bad, 96, math.nan)
+    other.fails(other.fmu.deSerializeFMUstate, bytes(bad), expect="allowed: finite times")
     other.close()
     # a state keeps the component's native part uncopied until the component
     # changes (common/fmi_state.c): serialised at once it is written from the

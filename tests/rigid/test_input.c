@@ -3,6 +3,10 @@
  * bit-identically; two instances coexist (FMI requires it). */
 #include "test_rigid_util.h"
 
+#include "../../rigid/rigid_internal.h"
+
+#include <stddef.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 static status_t try_create(const rigid_config_t *cfg, test_log_t *tl)
@@ -148,6 +152,119 @@ static void restart_case(rigid_integrator_t integ)
     rigid_free(bb);
 }
 
+/* The header of a rigid state (rigid/state.c, state_header_t), to corrupt
+ * its fields one at a time. */
+typedef struct {
+    uint32_t magic, version;
+    int32_t nspheres, nbodies, nconn, integrator;
+    int32_t have_prev, pad;
+    double t, h_prev;
+} rigid_header_copy_t;
+
+/* buf with len bytes at off replaced by v: refused with expect in the message. */
+static void rigid_refused(rigid_t *r, const test_log_t *tl, const unsigned char *buf, size_t n, size_t off,
+                          const void *v, size_t len, const char *expect)
+{
+    unsigned char *c = malloc(n);
+    CU_ASSERT_FATAL(c != NULL);
+    memcpy(c, buf, n);
+    memcpy(c + off, v, len);
+    const status_t st = rigid_state_restore(r, c, n);
+    const int named = strstr(tl->last, expect) != NULL;
+    if (st != STATUS_ERROR || !named) {
+        printf("\n    corrupted at byte %zu: status %d, expected an error naming '%s'; last message: %s", off, (int)st,
+               expect, tl->last);
+    }
+    CU_ASSERT_EQUAL(st, STATUS_ERROR);
+    CU_ASSERT(named);
+    free(c);
+}
+
+/* Every part of a rigid state the restore checks, corrupted one at a time,
+ * is refused with a message naming it, and the instance refusing it is left
+ * as it was; the state itself restores. */
+static void test_state_corruption_refused(void)
+{
+    double rr = 1e-3;
+    rigid_sphere_cfg_t s[3] = {{{0, 0, 0.01}, rr, 0}, {{2 * rr, 0, 0.01}, rr, 0}, {{0, 0, 0.005}, rr, 1}};
+    rigid_body_cfg_t b[2] = {{2500.0, {0, 0, -0.1}, {1, 2, 3}, 0}, {2500.0, {0, 0, 0.1}, {0, 0, 0}, 0}};
+    rigid_connection_cfg_t c = {0, 1, 1e-2, 0, 0};
+    rigid_config_t cfg = test_cfg(3, s, 2, b, 1, &c);
+    cfg.gravity[2] = -9.81;
+    test_log_t tl = {"", 0};
+    log_t lg = {test_log_fn, &tl};
+    rigid_t *a = NULL, *r = NULL;
+    CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &a), STATUS_OK);
+    CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, &lg, &r), STATUS_OK);
+    const double f[3] = {1e-5, 0, 0}, t[3] = {0, 1e-9, 0};
+    for (int k = 0; k < 10; k++) {
+        rigid_set_sphere_load(a, k % 3, f, t);
+        CU_ASSERT_EQUAL_FATAL(rigid_step(a, 1e-4), STATUS_OK);
+    }
+    const size_t n = rigid_state_size(a), n0 = rigid_state_size(r);
+    unsigned char *buf = malloc(n), *fresh = malloc(n0), *after = malloc(n0);
+    CU_ASSERT_FATAL(buf != NULL && fresh != NULL && after != NULL);
+    CU_ASSERT_EQUAL_FATAL(rigid_state_save(a, buf, n), STATUS_OK);
+    CU_ASSERT_EQUAL_FATAL(rigid_state_save(r, fresh, n0), STATUS_OK);
+    const size_t hs = sizeof(rigid_header_copy_t), sph = hs, bod = sph + 3 * sizeof(rigid_sphere_t);
+    const size_t con = bod + 2 * sizeof(rigid_body_t), touch = con + sizeof(rigid_conn_t);
+    CU_ASSERT_FATAL(touch + 9 == n);
+    /* the header */
+    const int32_t zero = 0, many = 1000, four = 4;
+    const double nan = NAN, inf = INFINITY, neg = -1.0, twice = 2e-3;
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, nbodies), &zero, 4, "does not fit");
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, nconn), &many, 4, "truncated");
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, t), &nan, 8, "time nan");
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, h_prev), &neg, 8, "previous step -1");
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, have_prev), &four, 4, "have_prev 4");
+    /* the spheres: what the scene fixes, their body, finite values */
+    const int body7 = 7, scene_body = 1;
+    rigid_refused(r, &tl, buf, n, sph + offsetof(rigid_sphere_t, radius), &twice, 8, "sphere 0: radius 0.002");
+    rigid_refused(r, &tl, buf, n, sph + offsetof(rigid_sphere_t, orig_body), &scene_body, 4, "scene body 1");
+    rigid_refused(r, &tl, buf, n, sph + sizeof(rigid_sphere_t) + offsetof(rigid_sphere_t, mass), &twice, 8,
+                  "sphere 1: radius");
+    rigid_refused(r, &tl, buf, n, sph + sizeof(rigid_sphere_t) + offsetof(rigid_sphere_t, body), &body7, 4,
+                  "belongs to body 7");
+    rigid_refused(r, &tl, buf, n, sph + 2 * sizeof(rigid_sphere_t) + offsetof(rigid_sphere_t, p), &nan, 8,
+                  "sphere 2: centre in its body's frame not finite");
+    rigid_refused(r, &tl, buf, n, sph + 2 * sizeof(rigid_sphere_t) + offsetof(rigid_sphere_t, held_t) + 8, &inf, 8,
+                  "sphere 2: loads not finite");
+    /* the bodies */
+    const int fixed5 = 5;
+    rigid_refused(r, &tl, buf, n, bod + offsetof(rigid_body_t, com) + 8, &inf, 8, "body 0: centre of mass not finite");
+    rigid_refused(r, &tl, buf, n, bod + offsetof(rigid_body_t, q), &twice, 8, "quaternion has norm");
+    rigid_refused(r, &tl, buf, n, bod + offsetof(rigid_body_t, mass), &twice, 8, "shares add up");
+    rigid_refused(r, &tl, buf, n, bod + sizeof(rigid_body_t) + offsetof(rigid_body_t, inertia) + 16, &neg, 8,
+                  "body 1: principal moment of inertia 2");
+    rigid_refused(r, &tl, buf, n, bod + offsetof(rigid_body_t, fixed), &fixed5, 4, "fixed = 5");
+    /* the connection */
+    const int sphere99 = 99, sphere0 = 0, intact3 = 3;
+    rigid_refused(r, &tl, buf, n, con + offsetof(rigid_conn_t, a), &sphere99, 4, "joins spheres 99 and 1");
+    rigid_refused(r, &tl, buf, n, con + offsetof(rigid_conn_t, b), &sphere0, 4, "joins spheres 0 and 0");
+    rigid_refused(r, &tl, buf, n, con + offsetof(rigid_conn_t, max_normal), &neg, 8, "limits -1 N");
+    rigid_refused(r, &tl, buf, n, con + offsetof(rigid_conn_t, max_shear), &nan, 8, "limits");
+    rigid_refused(r, &tl, buf, n, con + offsetof(rigid_conn_t, intact), &intact3, 4, "intact 3");
+    rigid_refused(r, &tl, buf, n, con + offsetof(rigid_conn_t, force), &nan, 8, "connection 0: its force");
+    /* the touch flags, and bytes beyond the contents */
+    const unsigned char flag7 = 7;
+    rigid_refused(r, &tl, buf, n, touch + 5, &flag7, 1, "touch flag of spheres 1 and 2 is 7");
+    unsigned char *longer = calloc(1, n + 1);
+    CU_ASSERT_FATAL(longer != NULL);
+    memcpy(longer, buf, n);
+    CU_ASSERT_EQUAL(rigid_state_restore(r, longer, n + 1), STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "bytes for the"));
+    free(longer);
+    /* none of them changed the instance; the state itself restores */
+    CU_ASSERT_EQUAL(rigid_state_save(r, after, n0), STATUS_OK);
+    CU_ASSERT(memcmp(fresh, after, n0) == 0);
+    CU_ASSERT_EQUAL(rigid_state_restore(r, buf, n), STATUS_OK);
+    free(buf);
+    free(fresh);
+    free(after);
+    rigid_free(a);
+    rigid_free(r);
+}
+
 static void test_restart_verlet(void) { restart_case(RIGID_VERLET); }
 static void test_restart_cvode(void) { restart_case(RIGID_CVODE); }
 
@@ -158,4 +275,5 @@ void test_input_register(void)
     CU_add_test(s, "non-finite load: error with body and time", test_nan_load_reported);
     CU_add_test(s, "state save/restore: bit-identical continuation (Verlet)", test_restart_verlet);
     CU_add_test(s, "state save/restore: bit-identical continuation (CVODE)", test_restart_cvode);
+    CU_add_test(s, "state restore: each corrupted part refused, the instance unchanged", test_state_corruption_refused);
 }
