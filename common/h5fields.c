@@ -1,6 +1,16 @@
 /* h5fields.c — field snapshots and their XDMF index (h5fields.h). Every
- * HDF5, MPI and stdio call is checked; a failure names the file and the
- * object.
+ * HDF5, MPI and stdio call is checked; a failure names the file, the object
+ * and the cause the system gave (HDF5 keeps it on its error stack: "No space
+ * left on device").
+ *
+ * A failed snapshot (a full disk, most often) is taken out again: its group
+ * is closed and deleted before anything is flushed, so that the file holds
+ * the complete snapshots before it and nothing that points past its end.
+ * This also keeps the file closable: HDF5 1.10 cannot close a file whose
+ * metadata it cannot write (H5Fclose fails and leaves a freed file behind
+ * its ID, which its exit handler then closes again: a segfault at exit),
+ * and the metadata of the new group is what it could not write. The index
+ * (.xmf) is rewritten only after a snapshot has been flushed.
  *
  * One process (no part, or a part without a communicator) writes the whole
  * grid with HDF5's default drivers, exactly as before MPI came. Several
@@ -22,9 +32,11 @@
 
 #include "file_held.h"
 
+#include <errno.h>
 #include <hdf5.h>
 #include <math.h>
 #include <mpi.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -64,10 +76,48 @@ static status_t open_file(const char *path, const int n[3], double dx, const h5f
 static status_t remember(h5fields_t *w, long step, double time);
 static status_t write_xmf(h5fields_t *w);
 
-static status_t fail(const h5fields_t *w, const char *what)
+/* The cause of the error on HDF5's stack: the system's message its file
+ * driver recorded (sec2: "..., errno = 28, error message = 'No space left on
+ * device', ..."), else the innermost description. Read at once after the
+ * failed call: the next API call clears the stack. */
+typedef struct {
+    char text[160];
+    int system; /* text is the system's message */
+} h5_cause_t;
+
+static herr_t find_cause(unsigned n, const H5E_error2_t *e, void *data)
 {
-    return log_msg(&w->log, STATUS_ERROR, "fields", "%s: HDF5 error while writing %s", w->path, what);
+    h5_cause_t *c = data;
+    static const char key[] = "error message = '";
+    const char *p = e->desc != NULL ? strstr(e->desc, key) : NULL;
+    if (p != NULL) {
+        p += sizeof key - 1;
+        const char *q = strchr(p, '\'');
+        snprintf(c->text, sizeof c->text, "%.*s", (int)(q != NULL ? q - p : (ptrdiff_t)strlen(p)), p);
+        c->system = 1;
+        return 1; /* found: stop */
+    }
+    if (n == 0 && e->desc != NULL) {
+        snprintf(c->text, sizeof c->text, "%s", e->desc); /* the innermost, in case nothing says more */
+    }
+    return 0;
 }
+
+/* A failed HDF5 call, logged with its cause. err: errno after a call that
+ * writes to the file, cleared before it (0 otherwise): the MPI-IO driver
+ * records no system message, but its failed write leaves errno set. */
+static status_t fail_io(const h5fields_t *w, const char *what, int err)
+{
+    h5_cause_t c = {"", 0};
+    H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, find_cause, &c);
+    if (!c.system && err != 0) {
+        snprintf(c.text, sizeof c.text, "%s", strerror(err));
+    }
+    return log_msg(&w->log, STATUS_ERROR, "fields", "%s: HDF5 error while writing %s%s%s", w->path, what,
+                   c.text[0] != '\0' ? ": " : "", c.text);
+}
+
+static status_t fail(const h5fields_t *w, const char *what) { return fail_io(w, what, 0); }
 
 /* The worst status of any process of comm (MPI_COMM_NULL: st itself). A
  * process that did not fail itself says which one did, so that each log
@@ -104,22 +154,70 @@ static void close_plist(hid_t p)
     }
 }
 
-/* Closes the snapshot's datasets and group (those open); 0 when a close
- * failed. Collective with several processes. */
-static int close_snapshot(h5fields_t *w)
+/* Closes the snapshot's datasets and group (those open), each even when
+ * one before failed; the first failure is logged when `report` (not after
+ * the failure that ends a snapshot: one message for it is enough).
+ * Collective with several processes. */
+static status_t close_snapshot(h5fields_t *w, int report)
 {
-    int ok = 1;
+    int failed = 0;
+    char what[160];
     for (int k = 0; k < 3; k++) {
-        if (w->dset[k] >= 0 && H5Dclose(w->dset[k]) < 0) {
-            ok = 0;
+        if (w->dset[k] >= 0 && H5Dclose(w->dset[k]) < 0 && !failed++ && report) {
+            snprintf(what, sizeof what, "%s/%s (closing)", w->snap_name, FIELD_NAMES[k]);
+            fail(w, what);
         }
         w->dset[k] = -1;
     }
-    if (w->snap >= 0 && H5Gclose(w->snap) < 0) {
-        ok = 0;
+    if (w->snap >= 0 && H5Gclose(w->snap) < 0 && !failed++ && report) {
+        snprintf(what, sizeof what, "%s (closing)", w->snap_name);
+        fail(w, what);
     }
     w->snap = -1;
-    return ok;
+    return failed ? STATUS_ERROR : STATUS_OK;
+}
+
+/* A snapshot that failed on the way: closed and its group deleted (by every
+ * process), so that neither a flush nor the close of the file has to write
+ * its metadata, and the file holds the snapshots before it only. Nothing is
+ * flushed here: HDF5 writes the deletion with the next flush or the close. */
+static status_t drop_failed_snapshot(h5fields_t *w, int report)
+{
+    status_t st = close_snapshot(w, report);
+    const htri_t there = H5Lexists(w->file, "/fields", H5P_DEFAULT) > 0 ? H5Lexists(w->file, w->snap_name, H5P_DEFAULT)
+                                                                        : 0;
+    if (there > 0 && H5Ldelete(w->file, w->snap_name, H5P_DEFAULT) < 0) {
+        char what[160];
+        snprintf(what, sizeof what, "%s (removing the incomplete snapshot)", w->snap_name);
+        st = status_worst(st, fail(w, what));
+    }
+    return st;
+}
+
+/* Closes whatever of the file is still open (a snapshot cut short), then the
+ * file: a file ID left open after a failed close crashes HDF5's exit
+ * handler. */
+static status_t close_file(h5fields_t *w)
+{
+    status_t st = STATUS_OK;
+    const unsigned types = H5F_OBJ_DATASET | H5F_OBJ_GROUP | H5F_OBJ_DATATYPE | H5F_OBJ_ATTR | H5F_OBJ_LOCAL;
+    const ssize_t n = H5Fget_obj_count(w->file, types);
+    hid_t ids[16];
+    if (n > 0) {
+        const ssize_t got = H5Fget_obj_ids(w->file, types, sizeof ids / sizeof ids[0], ids);
+        for (ssize_t k = 0; k < got; k++) {
+            const herr_t r = H5Iget_type(ids[k]) == H5I_ATTR ? H5Aclose(ids[k]) : H5Oclose(ids[k]);
+            if (r < 0 && st == STATUS_OK) {
+                st = fail(w, "an object of the file (closing)");
+            }
+        }
+    }
+    errno = 0;
+    if (H5Fclose(w->file) < 0) {
+        st = fail_io(w, "the file (closing)", errno);
+    }
+    w->file = -1;
+    return st;
 }
 
 status_t h5fields_close(h5fields_t *w)
@@ -128,9 +226,11 @@ status_t h5fields_close(h5fields_t *w)
         return STATUS_OK;
     }
     status_t st = STATUS_OK;
-    close_snapshot(w); /* a snapshot left unfinished (an error on the way) */
-    if (w->file >= 0 && H5Fclose(w->file) < 0) {
-        st = fail(w, "the file (closing)");
+    if (w->snap >= 0) {
+        st = drop_failed_snapshot(w, 1); /* a snapshot begun and never ended */
+    }
+    if (w->file >= 0) {
+        st = status_worst(st, close_file(w));
     }
     close_plist(w->dxpl);
     close_plist(w->dcpl);
@@ -382,6 +482,7 @@ static status_t create_one(h5fields_t *w, int k)
             a = H5Acreate2(w->dset[k], "unit", type, scalar, H5P_DEFAULT, H5P_DEFAULT);
             ok = a >= 0 && H5Awrite(a, type, FIELD_UNITS[k]) >= 0;
         }
+        st = ok ? STATUS_OK : fail(w, what); /* now: the closes below clear HDF5's error stack */
         if (a >= 0) {
             H5Aclose(a);
         }
@@ -391,7 +492,7 @@ static status_t create_one(h5fields_t *w, int k)
         if (type >= 0) {
             H5Tclose(type);
         }
-        st = agree(w, ok ? STATUS_OK : fail(w, what), what);
+        st = agree(w, st, what);
     }
     return st;
 }
@@ -406,8 +507,9 @@ static status_t write_planes_one(h5fields_t *w, int k, int z0, int nz, const voi
                       ? fail(w, what)
                       : STATUS_OK;
     st = agree(w, st, what);
+    errno = 0;
     if (st == STATUS_OK && H5Dwrite(w->dset[k], field_type(k), mspace, fspace, w->dxpl, data) < 0) {
-        st = fail(w, what);
+        st = fail_io(w, what, errno);
     }
     st = agree(w, st, what);
     if (mspace >= 0) {
@@ -460,7 +562,8 @@ static status_t write_xmf(h5fields_t *w)
     }
     FILE *fp = fopen(tmp, "w");
     if (fp == NULL) {
-        return log_msg(&w->log, STATUS_ERROR, "fields", "%s: cannot write the XDMF index", w->xmf);
+        return log_msg(&w->log, STATUS_ERROR, "fields", "%s: cannot write the XDMF index: %s", w->xmf,
+                       strerror(errno));
     }
     const char *h5 = strrchr(w->path, '/') ? strrchr(w->path, '/') + 1 : w->path;
     const int nx = w->n[0], ny = w->n[1], nz = w->n[2];
@@ -490,9 +593,20 @@ static status_t write_xmf(h5fields_t *w)
         fprintf(fp, "   </Grid>\n");
     }
     fprintf(fp, "  </Grid>\n </Domain>\n</Xdmf>\n");
-    const int bad = ferror(fp);
-    if (fclose(fp) != 0 || bad || rename(tmp, w->xmf) != 0) {
-        return log_msg(&w->log, STATUS_ERROR, "fields", "%s: cannot write the XDMF index", w->xmf);
+    /* the first failure and its errno: a full disk shows at the flush, or at the close */
+    int bad = ferror(fp) || fflush(fp) != 0, err = bad ? errno : 0;
+    if (fclose(fp) != 0 && !bad) {
+        bad = 1;
+        err = errno;
+    }
+    if (!bad && rename(tmp, w->xmf) != 0) {
+        bad = 1;
+        err = errno;
+    }
+    if (bad) {
+        remove(tmp); /* the index before stays as it was */
+        return log_msg(&w->log, STATUS_ERROR, "fields", "%s: cannot write the XDMF index: %s", w->xmf,
+                       err != 0 ? strerror(err) : "a write error");
     }
     return STATUS_OK;
 }
@@ -554,7 +668,9 @@ status_t h5fields_slabs(h5fields_t *w, int planes, int *calls)
 
 status_t h5fields_begin(h5fields_t *w, long step, double time)
 {
-    close_snapshot(w);
+    if (w->snap >= 0) {
+        drop_failed_snapshot(w, 1); /* one begun and never ended */
+    }
     snprintf(w->snap_name, sizeof w->snap_name, "/fields/%06ld", step);
     const char *name = w->snap_name;
     w->snap_step = step;
@@ -579,7 +695,7 @@ status_t h5fields_begin(h5fields_t *w, long step, double time)
         st = create_one(w, k);
     }
     if (st != STATUS_OK) {
-        close_snapshot(w);
+        drop_failed_snapshot(w, 0);
     }
     w->snap_st = st;
     return st;
@@ -619,13 +735,15 @@ status_t h5fields_end(h5fields_t *w)
         st = write_time(w, w->snap, w->snap_name, w->snap_time);
     }
     /* on every process, whatever the other did: closing is collective */
-    if (!close_snapshot(w)) {
-        st = status_worst(st, fail(w, w->snap_name));
-    }
-    if (H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0) {
-        st = status_worst(st, fail(w, w->snap_name));
+    st = agree(w, status_worst(st, close_snapshot(w, st == STATUS_OK)), w->snap_name);
+    errno = 0;
+    if (st == STATUS_OK && H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0) {
+        st = fail_io(w, w->snap_name, errno);
     }
     if ((st = agree(w, st, w->snap_name)) != STATUS_OK) {
+        /* incomplete, or not on disk: out again (the flush after a failed
+         * write is never tried, it could not write the new metadata) */
+        drop_failed_snapshot(w, 0);
         return st;
     }
     st = agree(w, remember(w, w->snap_step, w->snap_time), "the list of snapshots");
@@ -708,7 +826,8 @@ status_t h5fields_drop_after(h5fields_t *w, long step)
         }
         w->nsnaps--;
     }
-    status_t st = H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0 ? fail(w, "the file (flushing)") : STATUS_OK;
+    errno = 0;
+    status_t st = H5Fflush(w->file, H5F_SCOPE_GLOBAL) < 0 ? fail_io(w, "the file (flushing)", errno) : STATUS_OK;
     if ((st = agree(w, st, "flushing the field file")) != STATUS_OK) {
         return st;
     }

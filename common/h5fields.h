@@ -58,7 +58,10 @@ status_t h5fields_write(h5fields_t *w, long step, double time, const double *den
  * With several processes each h5fields_planes is collective: every process
  * makes the number of calls h5fields_slabs gives, those past the end of its
  * block with nz 0. After a failed call the next ones return its status, and
- * h5fields_end still closes the snapshot. */
+ * h5fields_end still closes the snapshot and takes it out of the file: a
+ * failed snapshot is never left in the file (nor in the index), so the file
+ * holds the complete snapshots before it and can still be closed. The
+ * messages name the cause the system gave ("No space left on device"). */
 status_t h5fields_begin(h5fields_t *w, long step, double time);
 status_t h5fields_planes(h5fields_t *w, int z0, int nz, const double *density, const double *velocity,
                          const unsigned char *flags);

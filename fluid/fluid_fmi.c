@@ -96,6 +96,7 @@ typedef struct {
     double *rho, *u;        /* SI moments of a slab of planes, for the field snapshots */
     unsigned char *flags;
     h5fields_t *fields;     /* NULL: no snapshots */
+    long fields_failed;     /* the step whose snapshot failed (the file was closed then), or -1 */
     long next_field;        /* snapshots at next_field * run.field_interval */
     long end_step;          /* the LBM step of run.end_time */
     log_t log;
@@ -308,6 +309,7 @@ static status_t fluid_fmi_create(const scene_t *s, double t0, const log_t *log, 
     if (m == NULL) {
         return oom(log, "the component", sizeof *m);
     }
+    m->fields_failed = -1;
     m->ns = scene_total_spheres(s);
     m->kin = calloc(9 * (size_t)m->ns + 1, sizeof(double));
     m->is_free = calloc((size_t)m->ns + 1, 1);
@@ -356,7 +358,9 @@ static void load_fields(fluid_fmi_t *m, int z0, int nz)
 static status_t maybe_snapshot(fluid_fmi_t *m)
 {
     if (m->fields == NULL) {
-        return STATUS_OK;
+        return m->fields_failed < 0 ? STATUS_OK
+                                    : log_msg(&m->log, STATUS_ERROR, "fluid", "no field snapshots after the one of "
+                                              "step %ld failed (the field file was closed then)", m->fields_failed);
     }
     /* an interval shorter than a step: a snapshot every step */
     const double dt = fluid_units(m->fl)->dt, fi = fmax(m->scene->run.field_interval, dt), t = fluid_time(m->fl);
@@ -385,6 +389,16 @@ static status_t maybe_snapshot(fluid_fmi_t *m)
         }
         st = status_worst(st, h5fields_end(m->fields));
     }
+    if (st >= STATUS_ERROR) {
+        /* the writer took the failed snapshot out again: closed now, the
+         * file holds the snapshots before it, whatever the master does next
+         * (h5fields.c; collective, as every rank has this status) */
+        h5fields_close(m->fields);
+        m->fields = NULL;
+        m->fields_failed = step;
+        return log_msg(&m->log, STATUS_ERROR, "fluid", "the field snapshot of step %ld failed (see above): the field "
+                       "file was closed and keeps the snapshots before it", step);
+    }
     m->next_field = scene_next_multiple(m->next_field, fi, t + 1e-9 * dt);
     return st;
 }
@@ -397,6 +411,7 @@ static status_t fluid_fmi_set_string(void *comp, const fmi_var_t *var, const cha
     }
     h5fields_close(m->fields);
     m->fields = NULL;
+    m->fields_failed = -1;
     /* the field buffers exist only where fields are written: a slab's */
     const size_t cells = (size_t)m->block[0] * (size_t)m->block[1] * (size_t)m->slab;
     if (m->rho == NULL) {
