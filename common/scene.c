@@ -9,7 +9,9 @@
  *   2. Each "dotted.key=value" override is checked against the libcyaml
  *      schema (an unknown key is an error naming the override), its value is
  *      parsed as YAML and grafted into the tree, creating missing mappings
- *      (scene_override.c).
+ *      (scene_override.c). Every scalar that the schema reads as a number
+ *      must then be one as a whole: libcyaml would read "1,000" as 1
+ *      (scene_check_numbers).
  *   3. The tree is emitted to text (kept as scene->text, the scene as run).
  *   4. libcyaml loads that text against the schema (scene_schema.c) into raw_*
  *      structs (optional keys are pointers, NULL when absent). Its messages
@@ -195,6 +197,10 @@ status_t scene_load(const char *path, const char *const *overrides, int noverrid
         if (!scene_override_apply(&c, &doc, overrides[i])) {
             goto done;
         }
+    }
+    scene_check_numbers(&c, &doc);
+    if (c.nerrors > 0) {
+        goto done;
     }
     doc_ok = false; /* emit_document consumes it */
     if (!scene_override_emit(&c, &doc, &text)) {

@@ -1,20 +1,181 @@
 /* scene_check.c — why a scene is refused.
  *
- * The checks of single values (a range, a finite vector, a whole number) and
- * of the scene's physical consistency: the domain a whole number of cells,
- * spheres resolved and inside the domain, no overlap between bodies at
- * start, walls for the plane-channel profile, at most half a cell per step at
- * a sphere surface, time scales against the fluid step, the lubrication
- * film's saturation gap below its cut-off. A failing check
- * reports key, value and allowed range (scene_report.c); an error refuses the
- * scene, a warning is only logged. */
+ * The checks of single values (a number written as a whole, a range, a
+ * finite vector, a whole number) and of the scene's physical consistency:
+ * the domain a whole number of cells, spheres resolved and inside the domain,
+ * no overlap between bodies at start, walls for the plane-channel profile,
+ * at most half a cell per step at a sphere surface, time scales against the
+ * fluid step, the lubrication film's saturation gap below its cut-off. A
+ * failing check reports key, value and allowed range (scene_report.c); an
+ * error refuses the scene, a warning is only logged. */
 #include "scene_internal.h"
 
+#include <ctype.h>
 #include <math.h>
 #include <stdlib.h>
 #include <stdio.h>
+#include <string.h>
+#include <strings.h>
 
 static const double SCENE_DX_TOLERANCE = 1e-9; /* relative, for "size is a multiple of dx" */
+
+/* ------------------------------------------------------------------------ */
+/* Numbers as written. libcyaml 1.3 reads a float with strtod and an integer
+ * with strtoll without asking whether the whole scalar was used: "1,000" was
+ * read as 1, "0.7 m" as 0.7, "1_000" as 1, "0o17" as 0 (PyYAML reads "1,000"
+ * as a string, so the two sides disagreed). Every scalar that lands in a
+ * number of the schema must therefore be a number as a whole, in the forms
+ * YAML 1.1 and 1.2 agree on and strtod reads the same way: decimal with an
+ * optional sign, point and exponent (1000, -0, +1.5, .5, 1e-3, 1.0E+3), a
+ * hexadecimal integer (0x10 = 16 for YAML and strtod alike), and the words
+ * inf, infinity and nan (any case) that strtod reads and the range checks
+ * then judge. Refused: trailing text (units, digit separators, YAML 1.1's
+ * 1_000 and 1:30), a whole number with a leading zero (017 is octal 15 in
+ * YAML 1.1 and PyYAML, 17 in YAML 1.2 and strtod), 0o17, and strtod's hex
+ * floats (0x1p3). A scalar strtod cannot read at all (".inf", "heavy") is
+ * left to libcyaml, which refuses it with its own message. */
+
+/* The length of the longest prefix of s in the forms above (0: none);
+ * *leading_zero when that prefix is a whole number written with one. */
+static size_t number_prefix(const char *s, bool integer, bool *leading_zero)
+{
+    static const char *const words[] = {"infinity", "inf", "nan"};
+    size_t i = (s[0] == '+' || s[0] == '-') ? 1 : 0;
+    *leading_zero = false;
+    for (size_t w = 0; !integer && w < sizeof words / sizeof words[0]; w++) {
+        size_t n = strlen(words[w]);
+        if (strncasecmp(s + i, words[w], n) == 0) {
+            return i + n;
+        }
+    }
+    if (s[i] == '0' && (s[i + 1] == 'x' || s[i + 1] == 'X') && isxdigit((unsigned char)s[i + 2])) {
+        i += 2;
+        while (isxdigit((unsigned char)s[i])) {
+            i++;
+        }
+        return i;
+    }
+    const size_t d0 = i;
+    while (s[i] >= '0' && s[i] <= '9') {
+        i++;
+    }
+    const size_t nint = i - d0;
+    bool whole = true;
+    if (!integer && s[i] == '.') {
+        size_t j = i + 1;
+        while (s[j] >= '0' && s[j] <= '9') {
+            j++;
+        }
+        if (nint > 0 || j > i + 1) {
+            i = j;
+            whole = false;
+        }
+    }
+    if (i == d0) {
+        return 0;
+    }
+    if (!integer && (s[i] == 'e' || s[i] == 'E')) {
+        size_t j = i + 1 + (s[i + 1] == '+' || s[i + 1] == '-');
+        if (s[j] >= '0' && s[j] <= '9') {
+            while (s[j] >= '0' && s[j] <= '9') {
+                j++;
+            }
+            i = j;
+            whole = false;
+        }
+    }
+    *leading_zero = whole && nint > 1 && s[d0] == '0';
+    return i;
+}
+
+/* The n characters of s for a message: control characters (a quoted "\0"
+ * too) as '?', cut to `size` - 1 with "..." at the end. */
+static void shown(const char *s, size_t n, char *buf, size_t size)
+{
+    size_t i = 0;
+    for (; i < n && i + 1 < size; i++) {
+        buf[i] = (unsigned char)s[i] < 0x20 || s[i] == 0x7f ? '?' : s[i];
+    }
+    buf[i] = '\0';
+    if (i < n && size > 4) {
+        memcpy(buf + size - 4, "...", 4);
+    }
+}
+
+static void check_number(ctx_t *c, const char *key, const yaml_node_t *n, bool integer)
+{
+    const char *s = (const char *)n->data.scalar.value;
+    const size_t total = n->data.scalar.length;
+    bool leading_zero;
+    size_t len = number_prefix(s, integer, &leading_zero);
+    if (len == total && !leading_zero) {
+        return;
+    }
+    char *end;
+    (void)strtod(s, &end);
+    if (len == 0 && end == s) {
+        return; /* nothing libcyaml could read either: it says so */
+    }
+    char value[64], rest[64], head[64];
+    shown(s, total, value, sizeof value);
+    shown(s + len, total - len, rest, sizeof rest);
+    shown(s, len, head, sizeof head);
+    const char *allowed = integer ? "an integer such as 4 or -12 (no units, digit separators or leading zeros)"
+                                  : "a number such as 1000, -2.5 or 1.0e-3 (no units, digit separators or leading "
+                                    "zeros)";
+    if (leading_zero) {
+        scene_report_bad(c, key,
+                         "wrong type or value ('%s' has a leading zero: octal in YAML 1.1 and PyYAML, decimal in "
+                         "YAML 1.2); allowed: %s",
+                         value, allowed);
+    } else if (len == 0) {
+        scene_report_bad(c, key, "wrong type or value ('%s' is not a number); allowed: %s", value, allowed);
+    } else {
+        scene_report_bad(c, key, "wrong type or value ('%s' is not a number: '%s' follows '%s'); allowed: %s", value,
+                         rest, head, allowed);
+    }
+}
+
+static void numbers_walk(ctx_t *c, yaml_document_t *doc, int id, const cyaml_schema_value_t *v, const char *key)
+{
+    const yaml_node_t *n = yaml_document_get_node(doc, id);
+    if (n == NULL) {
+        return;
+    }
+    char child[SCENE_KEY_MAX];
+    if (v->type == CYAML_MAPPING && n->type == YAML_MAPPING_NODE) {
+        for (const yaml_node_pair_t *p = n->data.mapping.pairs.start; p < n->data.mapping.pairs.top; p++) {
+            const yaml_node_t *k = yaml_document_get_node(doc, p->key);
+            if (k == NULL || k->type != YAML_SCALAR_NODE) {
+                continue;
+            }
+            const cyaml_schema_field_t *f =
+                scene_schema_field(v, (const char *)k->data.scalar.value, k->data.scalar.length);
+            int len = snprintf(child, sizeof child, "%s%s%s", key, key[0] ? "." : "",
+                               (const char *)k->data.scalar.value);
+            if (f != NULL && len > 0 && (size_t)len < sizeof child) {
+                numbers_walk(c, doc, p->value, &f->value, child);
+            }
+        }
+    } else if (scene_schema_is_sequence(v) && n->type == YAML_SEQUENCE_NODE) {
+        long i = 0;
+        for (const yaml_node_item_t *it = n->data.sequence.items.start; it < n->data.sequence.items.top; it++, i++) {
+            int len = snprintf(child, sizeof child, "%s%s%ld", key, key[0] ? "." : "", i);
+            if (len > 0 && (size_t)len < sizeof child) {
+                numbers_walk(c, doc, *it, v->sequence.entry, child);
+            }
+        }
+    } else if (n->type == YAML_SCALAR_NODE &&
+               (v->type == CYAML_FLOAT || v->type == CYAML_INT || v->type == CYAML_UINT)) {
+        check_number(c, key, n, v->type != CYAML_FLOAT);
+    }
+    /* anything else (a list where a number belongs, ...) is libcyaml's to report */
+}
+
+void scene_check_numbers(ctx_t *c, yaml_document_t *doc)
+{
+    numbers_walk(c, doc, 1, &SCENE_SCHEMA, "");
+}
 
 /* ------------------------------------------------------------------------ */
 /* Range checks of single values. Every failing check names key, value and

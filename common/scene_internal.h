@@ -254,6 +254,10 @@ bool scene_override_emit(ctx_t *c, yaml_document_t *doc, text_t *out);
 void scene_build(ctx_t *c, const raw_scene_t *r, scene_t *s);
 
 /* ---- scene_check.c: the checks that refuse a scene ---- */
+/* Between steps 2 and 3: every scalar of the tree that the schema reads as a
+ * number is one as a whole ("1,000" and "0.7 m" are not); reports each one
+ * that is not. */
+void scene_check_numbers(ctx_t *c, yaml_document_t *doc);
 /* Range checks. Every failing check names key, value and allowed range. */
 enum { LO_OPEN = 1, HI_OPEN = 2, ALLOW_INF = 4 };
 bool scene_check_range(ctx_t *c, const char *key, double v, double lo, double hi, int flags);

@@ -425,6 +425,41 @@ static void test_overrides(void)
     scene_free(s);
 }
 
+/* The forms of a number that YAML 1.1 and 1.2 agree on and strtod reads
+ * the same way load as those numbers (common/scene_check.c, "Numbers as
+ * written"); inf and nan are read and left to the range checks. */
+static void test_number_forms(void)
+{
+    capture_t cap;
+    scene_t *s = NULL;
+    const char *const ov[] = {
+        "bodies.0.density=0x7D0",           /* hexadecimal: 2000 */
+        "bodies.1.density=+2.5E+3",
+        "fluid.density=1.0E+3",
+        "fluid.viscosity=1e-6",
+        "contacts.friction=-0",
+        "contacts.restitution=.5",
+        "contacts.poisson_ratio='0.25'",    /* quoted: the same text */
+        "rigid.substeps=2.",
+        "connections.0.max_shear=inf",
+        "connections.0.max_torque=Infinity",
+        "bodies.0.spheres.0.center=[5.0e-4, 05.0e-4, 0.0005]",
+    };
+    CU_ASSERT_EQUAL_FATAL(load(BASE, ov, sizeof ov / sizeof ov[0], &cap, &s), STATUS_OK);
+    CU_ASSERT_EQUAL(cap.nerrors, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].density, 2000, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[1].density, 2500, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.density, 1000, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->fluid.viscosity, 1e-6, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.friction, 0, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.restitution, 0.5, 0);
+    CU_ASSERT_DOUBLE_EQUAL(s->contacts.poisson_ratio, 0.25, 0);
+    CU_ASSERT_EQUAL(s->rigid.substeps, 2);
+    CU_ASSERT(isinf(s->connections[0].max_shear) && isinf(s->connections[0].max_torque));
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].spheres[0].center[1], 5e-4, 0);
+    scene_free(s);
+}
+
 static void test_warnings(void)
 {
     capture_t cap;
@@ -547,6 +582,91 @@ static void test_bad_override(void)
     const char *const ov[] = {"fluid.tau=3"};
     EXPECT_ERROR("fluid: 3\ndomain: {size: [1, 1, 1]}\nrun: {end_time: 1}\n", ov, 1,
                  "override 'fluid.tau=3': fluid is a scalar in the file, not a mapping");
+}
+
+/* Numbers must be numbers as a whole (common/scene_check.c, "Numbers as
+ * written"): libcyaml reads a float with strtod and used to take the number
+ * at the start of "1,000" (1), "0.7 m", "1_000" or "0o17" (0) and drop the
+ * rest. Every number-valued key of models/README.md, scalars and items of
+ * vectors and lists, from --set and from the file. */
+static void test_number_as_written(void)
+{
+    static const char *const keys[] = {
+        "domain.size.0", "domain.faces.z_max.velocity.0", "fluid.density", "fluid.viscosity", "fluid.dx",
+        "fluid.tau", "fluid.magic", "fluid.mach_limit", "bodies.0.density", "bodies.0.spheres.1.center.2",
+        "bodies.0.spheres.0.radius", "connections.0.spheres.1", "connections.0.max_normal", "contacts.contact_time",
+        "rigid.gravity.2",
+    };
+    static const char *const bad[][2] = {
+        /* value, then what the message says of it */
+        {"1,000", "('1,000' is not a number: ',000' follows '1')"},
+        {"0.7 m", "('0.7 m' is not a number: ' m' follows '0.7')"},
+        {"0.7abc", "('0.7abc' is not a number: 'abc' follows '0.7')"},
+        {"1_000", "('1_000' is not a number: '_000' follows '1')"},
+        {"0o17", "('0o17' is not a number: 'o17' follows '0')"},
+        {"017", "('017' has a leading zero: octal in YAML 1.1 and PyYAML, decimal in YAML 1.2)"},
+        {"1:30", "('1:30' is not a number: ':30' follows '1')"},
+        {"0x1p3", "('0x1p3' is not a number: 'p3' follows '0x1')"},
+        {"'1.5 '", "('1.5 ' is not a number: ' ' follows '1.5')"},
+    };
+    const char *allowed =
+        "allowed: a number such as 1000, -2.5 or 1.0e-3 (no units, digit separators or leading zeros)";
+    char set[128], want[256];
+    for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++) {
+        for (size_t v = 0; v < sizeof bad / sizeof bad[0]; v++) {
+            snprintf(set, sizeof set, "%s=%s", keys[k], bad[v][0]);
+            snprintf(want, sizeof want, "scene.yaml (--set %s): %s: wrong type or value %s", set, keys[k], bad[v][1]);
+            EXPECT_SET_ERROR(set, want, allowed);
+        }
+    }
+    /* keys the base scene does not have, created by the override */
+    static const char *const created[][2] = {
+        {"domain.faces.x_min.pressure=2 Pa", "domain.faces.x_min.pressure"},
+        {"fluid.cells_per_radius=4x", "fluid.cells_per_radius"},
+        {"fluid.dt=1e-5s", "fluid.dt"},
+        {"fluid.body_force=[0, 0, 1e3N]", "fluid.body_force.2"},
+        {"fluid.initial_velocity=[0, 1.5.0, 0]", "fluid.initial_velocity.1"},
+        {"bodies.1.velocity=[0, 0, 1m]", "bodies.1.velocity.2"},
+        {"bodies.1.angular_velocity=[0x, 0, 0]", "bodies.1.angular_velocity.0"},
+        {"connections.0.max_shear=1e-6N", "connections.0.max_shear"},
+        {"connections.0.max_torque=2%", "connections.0.max_torque"},
+        {"contacts.restitution=0.9.1", "contacts.restitution"},
+        {"contacts.friction=0,3", "contacts.friction"},
+        {"contacts.young_modulus=1e9Pa", "contacts.young_modulus"},
+        {"contacts.poisson_ratio=.3.", "contacts.poisson_ratio"},
+        {"contacts.stick_speed=1e-3/s", "contacts.stick_speed"},
+        {"contacts.lubrication.cutoff=2cells", "contacts.lubrication.cutoff"},
+        {"contacts.lubrication.min_gap=1e-7 m", "contacts.lubrication.min_gap"},
+        {"rigid.rtol=1e-8!", "rigid.rtol"},
+        {"rigid.atol=1e-12?", "rigid.atol"},
+        {"rigid.substeps=1_0", "rigid.substeps"},
+        {"run.end_time=0.1s", "run.end_time"},
+        {"run.output_interval=1e-3 s", "run.output_interval"},
+        {"run.field_interval=5e-3 s", "run.field_interval"},
+        {"run.ranks=[1, 1, 2x]", "run.ranks.2"},
+    };
+    for (size_t i = 0; i < sizeof created / sizeof created[0]; i++) {
+        snprintf(want, sizeof want, "scene.yaml (--set %s): %s: wrong type or value", created[i][0], created[i][1]);
+        EXPECT_SET_ERROR(created[i][0], want, "is not a number", allowed);
+    }
+    /* from the file: located by line; every bad number is reported */
+    static const char yaml[] = "domain: {size: [1.0e-3, 1.0e-3, 1.0e-3]}\n"
+                               "fluid:\n"
+                               "  density: 1,000\n"
+                               "  viscosity: 1.0e-6 m^2/s\n"
+                               "  dx: 1.0e-4\n"
+                               "  tau: 1.0\n"
+                               "run: {end_time: 2.0}\n";
+    capture_t *cap = malloc(sizeof *cap);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(cap);
+    scene_t *s = NULL;
+    CU_ASSERT_EQUAL(load(yaml, NULL, 0, cap, &s), STATUS_ERROR);
+    CU_ASSERT_PTR_NULL(s);
+    CU_ASSERT_EQUAL(cap->nerrors, 2);
+    assert_contains(cap, "scene.yaml:3: fluid.density: wrong type or value ('1,000' is not a number", __LINE__);
+    assert_contains(cap, "scene.yaml:4: fluid.viscosity: wrong type or value ('1.0e-6 m^2/s' is not a number: "
+                         "' m^2/s' follows '1.0e-6')", __LINE__);
+    free(cap);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -824,6 +944,7 @@ void scene_register_tests(void)
         {"step in whole nanoseconds", test_whole_ns_step},
         {"overrides", test_overrides},
         {"warnings", test_warnings},
+        {"numbers in their YAML forms", test_number_forms},
         {"repeatable", test_repeatable},
         {"contacts.lubrication", test_lubrication_keys},
         {"body across a periodic face", test_body_across_periodic_face},
@@ -836,6 +957,7 @@ void scene_register_tests(void)
           {"missing key", test_missing_key},
           {"wrong type", test_wrong_type},
           {"bad override", test_bad_override},
+          {"numbers as a whole", test_number_as_written},
           {"out of range", test_out_of_range},
           {"dx/cells_per_radius, tau/dt", test_resolution_exclusive},
           {"domain not divisible by dx", test_not_divisible},

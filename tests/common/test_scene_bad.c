@@ -9,10 +9,11 @@
  * RANGE", models/README.md "Error messages"), the file written as
  * "scene.yaml" without its temporary folder. The rows complement the cases of
  * test_scene.c: every top-level group, wrong types, NaN and infinity,
- * negative sizes, unknown enum values, overlaps, spheres outside the domain,
- * connections naming missing spheres, bad --set paths, files that are empty,
- * not YAML, deeply nested or very large, and YAML aliases. Rows that were
- * bugs of the reader say so. */
+ * numbers followed by text or written with a leading zero, negative sizes,
+ * unknown enum values, overlaps, spheres outside the domain, connections
+ * naming missing spheres, bad --set paths, files that are empty, not YAML,
+ * deeply nested or very large, and YAML aliases. Rows that were bugs of the
+ * reader say so. */
 #include "scene_tests.h"
 
 #include "../../common/scene.h"
@@ -181,6 +182,19 @@ static const bad_scene_t CASES[] = {
     {0, NULL, NULL, {"fluid.body_force=[0, 0, -1e999]"}, 1,
      "scene.yaml (--set fluid.body_force=[0, 0, -1e999]): fluid.body_force = [0, 0, -inf]: component 2 is not a "
      "finite number; allowed: finite numbers"},
+    /* numbers followed by more text were read in part: libcyaml 1.3 takes a
+     * float with strtod and let the rest go ("1,000" loaded as 1, where
+     * PyYAML reads a string) */
+    {7, "  density: 1,000", NULL, {NULL}, 1,
+     "scene.yaml:7: fluid.density: wrong type or value ('1,000' is not a number: ',000' follows '1'); allowed: a "
+     "number such as 1000, -2.5 or 1.0e-3 (no units, digit separators or leading zeros)"},
+    {0, NULL, NULL, {"fluid.tau=0.7 m"}, 1,
+     "scene.yaml (--set fluid.tau=0.7 m): fluid.tau: wrong type or value ('0.7 m' is not a number: ' m' follows "
+     "'0.7'); allowed: a number such as 1000, -2.5 or 1.0e-3 (no units, digit separators or leading zeros)"},
+    {0, NULL, NULL, {"fluid.body_force=[0, 0, -9.81e3 N/m^3]"}, 1,
+     "scene.yaml (--set fluid.body_force=[0, 0, -9.81e3 N/m^3]): fluid.body_force.2: wrong type or value ('-9.81e3 "
+     "N/m^3' is not a number: ' N/m^3' follows '-9.81e3'); allowed: a number such as 1000, -2.5 or 1.0e-3 (no units, "
+     "digit separators or leading zeros)"},
     {0, NULL, NULL, {"fluid.initial_velocity=[0, 0]"}, 1,
      "scene.yaml (--set fluid.initial_velocity=[0, 0]): fluid.initial_velocity: wrong type or value "
      "(libcyaml: Insufficient entries (2 of 3 min) in sequence.); allowed: a list of exactly 3 numbers"},
@@ -219,6 +233,15 @@ static const bad_scene_t CASES[] = {
      "scene.yaml:21: bodies.1.spheres.0.center = [0.00084, 0.0005, 0.0005] (sphere 2, body 1) overlaps sphere 1 of "
      "body 0 at [0.00065, 0.0005, 0.0005]: centre distance 0.00019 m < sum of radii 0.0002 m; allowed: distance >= "
      "sum of radii for spheres of different bodies"},
+    {2, "  size: [1.0e-3, 1.0e-3, 2.0e-3m]", NULL, {NULL}, 1,
+     "scene.yaml:2: domain.size.2: wrong type or value ('2.0e-3m' is not a number: 'm' follows '2.0e-3'); allowed: "
+     "a number such as 1000, -2.5 or 1.0e-3 (no units, digit separators or leading zeros)"},
+    /* every bad number is reported, each on its line */
+    {15, "      - {center: [5.0e-4, 5.0e-4, 5.0e-4], radius: 1.0e-4 m}\n      - {center: [6.5e-4, 5.0e-4 m, 5.0e-4], "
+         "radius: 1.0e-4}",
+     NULL, {NULL}, 2,
+     "scene.yaml:15: bodies.0.spheres.0.radius: wrong type or value ('1.0e-4 m' is not a number: ' m' follows "
+     "'1.0e-4'); allowed: a number such as 1000, -2.5 or 1.0e-3 (no units, digit separators or leading zeros)"},
     /* logged n^2 messages: now the first 50 and one that counts the rest */
     {0, NULL, many_overlapping_spheres, {NULL}, 51,
      "scene.yaml:6: bodies.1.spheres.0.center = [0.0005, 0.0005, 0.0005] (sphere 400, body 1) overlaps sphere 0 of "
@@ -239,6 +262,14 @@ static const bad_scene_t CASES[] = {
     {0, NULL, NULL, {"connections.0.max_shear=-nan"}, 1,
      "scene.yaml (--set connections.0.max_shear=-nan): connections.0.max_shear = nan: out of range; allowed: [0, "
      "inf]"},
+    /* 01 is octal in YAML 1.1 (PyYAML) and decimal in YAML 1.2; "1_000" was read as 1 */
+    {23, "  - {spheres: [0, 01], max_normal: 1.0e-6}", NULL, {NULL}, 1,
+     "scene.yaml:23: connections.0.spheres.1: wrong type or value ('01' has a leading zero: octal in YAML 1.1 and "
+     "PyYAML, decimal in YAML 1.2); allowed: a number such as 1000, -2.5 or 1.0e-3 (no units, digit separators or "
+     "leading zeros)"},
+    {0, NULL, NULL, {"rigid.substeps=1_000"}, 1,
+     "scene.yaml (--set rigid.substeps=1_000): rigid.substeps: wrong type or value ('1_000' is not a number: '_000' "
+     "follows '1'); allowed: a number such as 1000, -2.5 or 1.0e-3 (no units, digit separators or leading zeros)"},
     {0, MINIMAL "connections: {spheres: [0, 1]}\n", NULL, {NULL}, 1, 
      "scene.yaml:4: connections: wrong type or value (libcyaml: Expecting SEQUENCE, got event: MAPPING_START); "
      "allowed: a "

@@ -153,6 +153,7 @@ BAD = [
     ("domain.size=[1.0e-4, 1.0e-4, 1.01e-3]", ["domain.size", "dx"]),
     ("domain.faces.x_min.type=no_slip", ["x_min", "periodic"]),
     ("fluid.collision=lbgk", ["fluid.collision", "lbgk"]),
+    ("fluid.tau=0.7 m", ["fluid.tau", "'0.7 m' is not a number: ' m' follows '0.7'"]),  # was read as 0.7
 ]
 
 
