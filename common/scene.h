@@ -187,6 +187,11 @@ const char *face_type_name(face_type_t t);
  * compressibility error of the lattice (O(Ma^2)) reaches ~10% and BGK/TRT
  * start to lose stability; well above the Mach ~0.1 a scene aims for. */
 #define SCENE_MACH_LIMIT_DEFAULT 0.3
+/* The most fluid steps a run may take, ceil(run.end_time / fluid.dt): 2^53.
+ * Step counters are `long` (64 bits) and times are counted as step x dt in
+ * double, which holds every whole number up to 2^53 exactly; scene_load
+ * refuses a run.end_time beyond it. */
+#define SCENE_STEPS_MAX 9007199254740992LL
 /* Whether t (s) is a whole number of nanoseconds within 1e-9 relative (the
  * FMUs' tolerance on communication points); *ns the nearest count (may be NULL). */
 int scene_whole_ns(double t, long long *ns);

@@ -478,6 +478,9 @@ void scene_build(ctx_t *c, const raw_scene_t *r, scene_t *s)
     build_contacts(c, r->contacts, s, dt_ok);
     build_rigid(c, r->rigid, &s->rigid);
     build_run(c, &r->run, &s->run);
+    if (dt_ok) {
+        scene_check_run_length(c, s);
+    }
     if (dx_ok && c->nerrors == 0) {
         scene_check_lubrication(c, s);
     }

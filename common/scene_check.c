@@ -5,12 +5,14 @@
  * the domain a whole number of cells, spheres resolved and inside the domain,
  * no overlap between bodies at start, walls for the plane-channel profile,
  * at most half a cell per step at a sphere surface, time scales against the
- * fluid step, the lubrication film's saturation gap below its cut-off. A
+ * fluid step, a run whose steps can be counted, the lubrication film's
+ * saturation gap below its cut-off. A
  * failing check reports key, value and allowed range (scene_report.c); an
  * error refuses the scene, a warning is only logged. */
 #include "scene_internal.h"
 
 #include <ctype.h>
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <stdio.h>
@@ -486,6 +488,31 @@ void scene_check_time_scales(ctx_t *c, const scene_t *s)
                           "are advised (raise rigid.substeps)",
                           fmt_num(s->contacts.contact_time).s, fmt_num(s->contacts.contact_time / rigid_dt).s,
                           fmt_num(rigid_dt).s);
+    }
+}
+
+/* The run is counted in fluid steps, ceil(run.end_time / fluid.dt) as
+ * coupler/run.c, fluid/units.c and the fluid FMU compute it, a `long`
+ * multiplied back by dt in double: the count must stay within
+ * SCENE_STEPS_MAX = 2^53, where both are exact (far below LONG_MAX).
+ * run.end_time = 1e15 s at dt = 1.7e-5 s made 6e19 steps and `coupler check`
+ * printed "steps -9223372036854775808". */
+_Static_assert(LONG_MAX >= SCENE_STEPS_MAX, "step counts are longs");
+
+void scene_check_run_length(ctx_t *c, const scene_t *s)
+{
+    const scene_run_t *u = &s->run;
+    const double dt = s->fluid.dt;
+    if (!(u->end_time > 0) || !isfinite(u->end_time)) {
+        return; /* already reported */
+    }
+    const double steps = ceil(u->end_time / dt - 1e-9);
+    if (!(steps <= (double)SCENE_STEPS_MAX)) {
+        scene_report_bad(c, "run.end_time",
+                         "= %s s is %s steps of fluid.dt = %s s, more than a run can count; allowed: at most %lld "
+                         "(2^53) steps, i.e. run.end_time <= %s s",
+                         fmt_num(u->end_time).s, fmt_num(steps).s, fmt_num(dt).s, SCENE_STEPS_MAX,
+                         fmt_num((double)SCENE_STEPS_MAX * dt).s);
     }
 }
 

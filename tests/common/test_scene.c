@@ -864,6 +864,28 @@ static void test_prescribed_speed(void)
                  "cells per step; allowed: at most 0.5 cells per step = 0.2 m/s");
 }
 
+/* A run's steps ceil(run.end_time / fluid.dt) are counted in longs and
+ * multiplied back by dt in double: at most SCENE_STEPS_MAX = 2^53 (scene.h).
+ * run.end_time = 1e15 s gave a step count beyond a long (`coupler check`
+ * printed -9223372036854775808 steps and exited 0). The base scene's dt is
+ * 62500 ns: 2^53 steps are 5.63e11 s. */
+static void test_run_length(void)
+{
+    EXPECT_SET_ERROR("run.end_time=1e15",
+                     "scene.yaml (--set run.end_time=1e15): run.end_time = 1e+15 s is 1.6e+19 steps of fluid.dt = "
+                     "6.25e-05 s, more than a run can count; allowed: at most 9007199254740992 (2^53) steps, i.e. "
+                     "run.end_time <= 562949953421 s");
+    EXPECT_SET_ERROR("run.end_time=5.7e11", "run.end_time = 570000000000 s is 9.12e+15 steps");
+    /* within the limit: loads, and the count fits */
+    capture_t cap;
+    scene_t *s = NULL;
+    const char *const ok[] = {"run.end_time=5.6e11", "run.output_interval=1e-4"};
+    CU_ASSERT_EQUAL_FATAL(load(BASE, ok, 2, &cap, &s), STATUS_OK);
+    CU_ASSERT(ceil(s->run.end_time / s->fluid.dt - 1e-9) <= (double)SCENE_STEPS_MAX);
+    CU_ASSERT_EQUAL((long)ceil(s->run.end_time / s->fluid.dt - 1e-9), 8960000000000000L);
+    scene_free(s);
+}
+
 /* All violations are reported, not only the first. */
 static void test_many_errors(void)
 {
@@ -967,6 +989,7 @@ void scene_register_tests(void)
           {"overlapping bodies", test_overlap},
           {"radius in cells", test_radius_cells},
           {"prescribed speed", test_prescribed_speed},
+          {"run length countable", test_run_length},
           {"many errors", test_many_errors},
       };
     CU_pSuite s1 = CU_add_suite("scene: valid input", NULL, NULL);

@@ -320,6 +320,11 @@ static const bad_scene_t CASES[] = {
      "scene.yaml:26: run: wrong type or value (libcyaml: Expecting MAPPING, got event: SCALAR); allowed: "
      "a mapping with the keys end_time (required), output_interval, fields, field_interval, ranks"},
 
+    /* steps beyond a long: `coupler check` printed "steps -9223372036854775808" and exited 0 */
+    {26, "run: {end_time: 1.0e+15}", NULL, {NULL}, 1,
+     "scene.yaml:26: run.end_time = 1e+15 s is 1.6e+19 steps of fluid.dt = 6.25e-05 s, more than a run can count; "
+     "allowed: at most 9007199254740992 (2^53) steps, i.e. run.end_time <= 562949953421 s"},
+
     /* --- --set paths --- */
     {0, NULL, NULL, {"run.end_time.0=1"}, 1,
      "scene.yaml: override 'run.end_time.0=1': run.end_time is a number and has no key '0'"},

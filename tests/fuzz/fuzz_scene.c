@@ -142,6 +142,7 @@ static void check_scene(const scene_t *s)
              c->max_shear >= 0 && c->max_torque >= 0;
     }
     ok = ok && s->rigid.substeps >= 1 && s->run.end_time > 0 && s->run.output_interval > 0;
+    ok = ok && ceil(s->run.end_time / f->dt - 1e-9) <= (double)SCENE_STEPS_MAX;
     for (int i = 0; ok && i < 6; i++) {
         ok = strcmp(face_type_name(s->domain.faces[i].type), "unknown") != 0;
     }

@@ -169,6 +169,19 @@ def test_bad_scene_values(coupler, tmp_path, override, words):
     assert out.read_bytes() == b"precious"  # nothing written
 
 
+def test_check_refuses_a_run_too_long_to_count(coupler):
+    """ceil(run.end_time / dt) beyond a long: check printed "steps -9223372036854775808" and
+    exited 0; now the scene is refused with the count and the maximum, 2^53 (common/scene.h)."""
+    p = run("check", MODELS / "sinking_sphere.yaml", "--set", "run.end_time=1e15")
+    assert p.returncode == 1
+    assert "run.end_time = 1e+15 s is 5.9998800024e+19 steps of fluid.dt" in p.stderr, p.stderr
+    assert "allowed: at most 9007199254740992 (2^53) steps" in p.stderr
+    assert "-9223372036854775808" not in p.stdout
+    p = run("check", MODELS / "sinking_sphere.yaml", "--set", "run.end_time=1.5e11")
+    assert p.returncode == 0, p.stderr
+    assert "steps              8999820003599925 to t = 1.5e+11 s" in p.stdout
+
+
 def test_missing_key_and_syntax_error(coupler, tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("domain:\n  size: [1e-3, 1e-3, 1e-3]\nfluid:\n  density: 1000\n  dx: 1e-4\n  tau: 0.8\n"
