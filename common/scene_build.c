@@ -246,6 +246,8 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
     scene_check_vec(c, "fluid.initial_velocity", f->initial_velocity, 3);
 
     bool dx_ok = false;
+    const char *dx_key = r->dx != NULL ? "fluid.dx" : "fluid.cells_per_radius";
+    const double rmin = smallest_radius(s);
     if ((r->dx != NULL) == (r->cells_per_radius != NULL)) {
         scene_report_bad(c, r->dx ? "fluid.dx" : "fluid",
                          "%s; allowed: exactly one of fluid.dx (m) and fluid.cells_per_radius",
@@ -257,7 +259,6 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
         dx_ok = scene_check_range(c, "fluid.dx", f->dx, 0, INFINITY, LO_OPEN);
     } else {
         f->cells_per_radius = *r->cells_per_radius;
-        double rmin = smallest_radius(s);
         if (scene_check_range(c, "fluid.cells_per_radius", f->cells_per_radius, SCENE_MIN_RADIUS_CELLS, INFINITY, 0)) {
             if (!isfinite(rmin)) {
                 scene_report_bad(c, "fluid.cells_per_radius",
@@ -279,12 +280,13 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
         /* tau = 1/2 + 3 nu dt / dx^2 (lattice viscosity nu_lb = (tau - 1/2)/3) */
         if (scene_check_range(c, "fluid.tau", f->tau, 0.5, INFINITY, LO_OPEN) && dx_ok && nu_ok) {
             f->dt = whole_ns_step(f);
-            *dt_ok = true;
+            *dt_ok = scene_check_step(c, dx_key, s, rmin, false);
         }
     } else {
         f->tau_requested = 0.0;
         f->dt = *r->dt;
-        if (scene_check_range(c, "fluid.dt", f->dt, 0, INFINITY, LO_OPEN) && dx_ok && nu_ok) {
+        if (scene_check_range(c, "fluid.dt", f->dt, 0, INFINITY, LO_OPEN) && dx_ok && nu_ok &&
+            scene_check_step(c, dx_key, s, rmin, true)) {
             f->tau = 0.5 + 3.0 * f->viscosity * f->dt / (f->dx * f->dx);
             if (!(f->tau > 0.5) || !isfinite(f->tau)) {
                 scene_report_bad(c, "fluid.dt",

@@ -1,17 +1,18 @@
 /* scene_check.c — why a scene is refused.
  *
  * The checks of single values (a number written as a whole, a range, a
- * finite vector, a whole number) and of the scene's physical consistency:
- * the domain a whole number of cells, spheres resolved and inside the domain,
- * no overlap between bodies at start, walls for the plane-channel profile,
- * at most half a cell per step at a sphere surface, time scales against the
- * fluid step, a run whose steps can be counted, the lubrication film's
- * saturation gap below its cut-off. A
+ * finite vector, a whole number) and of the scene's physical consistency: a
+ * resolution whose step dt is a usable number, the domain a whole number of
+ * cells, spheres resolved and inside the domain, no overlap between bodies at
+ * start, walls for the plane-channel profile, at most half a cell per step at
+ * a sphere surface, time scales against the fluid step, a run whose steps can
+ * be counted, the lubrication film's saturation gap below its cut-off. A
  * failing check reports key, value and allowed range (scene_report.c); an
  * error refuses the scene, a warning is only logged. */
 #include "scene_internal.h"
 
 #include <ctype.h>
+#include <float.h>
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
@@ -222,6 +223,51 @@ bool scene_check_int(ctx_t *c, const char *key, double v, double lo, double hi)
 
 /* ------------------------------------------------------------------------ */
 /* Consistency of the scene as a whole, in the order scene_build runs them. */
+
+/* The lattice ties the step to the resolution, dt = (tau - 1/2) dx^2 / (3 nu).
+ * dx^2 must be a positive normal double (when fluid.dt is given, tau is
+ * derived through it), and a dt derived from fluid.tau one whose tenfold
+ * (the default contact time) is finite as well. fluid.dx = 1e-300 m made dt
+ * underflow to 0, and the scene was refused for the default
+ * contacts.contact_time = 10 dt = 0, a key the file did not have, with no
+ * line. Here the key of the resolution is named (fluid.dx, or
+ * fluid.cells_per_radius that set it from the smallest radius rmin) with the
+ * range that keeps dx^2 and dt usable for the given tau and viscosity. */
+bool scene_check_step(ctx_t *c, const char *key, const scene_t *s, double rmin, bool dt_given)
+{
+    const scene_fluid_t *f = &s->fluid;
+    const double dx2 = f->dx * f->dx, dt_max = DBL_MAX / 10;
+    double lo = sqrt(DBL_MIN), hi = sqrt(DBL_MAX); /* dx for a usable dx^2 */
+    char why[SCENE_MSG_MAX / 2];
+    if (dt_given) {
+        if (dx2 >= DBL_MIN && isfinite(dx2)) {
+            return true;
+        }
+        snprintf(why, sizeof why, "dx^2 = %s m^2, from which tau = 1/2 + 3 nu dt / dx^2 cannot be computed",
+                 fmt_num(dx2).s);
+    } else {
+        if (f->dt >= DBL_MIN && f->dt <= dt_max) {
+            return true;
+        }
+        const double k = sqrt((f->tau - 0.5) / (3.0 * f->viscosity)); /* dt = (k dx)^2 */
+        lo = sqrt(DBL_MIN) / k;
+        hi = sqrt(dt_max) / k;
+        snprintf(why, sizeof why,
+                 "the step dt = (tau - 1/2) dx^2 / (3 nu) = %s s with fluid.tau = %s and fluid.viscosity = %s m^2/s, "
+                 "outside the steps a run can take, [%s, %s] s",
+                 fmt_num(f->dt).s, fmt_num(f->tau).s, fmt_num(f->viscosity).s, fmt_num(DBL_MIN).s, fmt_num(dt_max).s);
+    }
+    if (f->cells_per_radius > 0) {
+        scene_report_bad(c, key, "= %s gives fluid.dx = %s m and %s; allowed: %s in [%s, %s]%s",
+                         fmt_num(f->cells_per_radius).s, fmt_num(f->dx).s, why, key,
+                         fmt_num(fmax(SCENE_MIN_RADIUS_CELLS, rmin / hi)).s, fmt_num(rmin / lo).s,
+                         dt_given ? "" : " for this tau and viscosity");
+    } else {
+        scene_report_bad(c, key, "= %s m gives %s; allowed: %s in [%s, %s] m%s", fmt_num(f->dx).s, why, key,
+                         fmt_num(lo).s, fmt_num(hi).s, dt_given ? "" : " for this tau and viscosity");
+    }
+    return false;
+}
 
 void scene_check_divisible(ctx_t *c, const scene_t *s)
 {

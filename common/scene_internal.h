@@ -265,6 +265,10 @@ bool scene_check_vec(ctx_t *c, const char *key, const double *v, int n);
 /* A whole number in [lo, hi] read as a double (see raw structs). */
 bool scene_check_int(ctx_t *c, const char *key, double v, double lo, double hi);
 /* Consistency, in the order scene_build runs them. */
+/* dx^2, and the dt derived from fluid.tau (dt_given false), usable numbers;
+ * else reported on `key`, the key that set dx (rmin: the smallest sphere
+ * radius, for fluid.cells_per_radius). */
+bool scene_check_step(ctx_t *c, const char *key, const scene_t *s, double rmin, bool dt_given);
 void scene_check_divisible(ctx_t *c, const scene_t *s);
 void scene_check_spheres(ctx_t *c, const scene_t *s, bool domain_ok, bool dx_ok);
 void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok);

@@ -736,6 +736,32 @@ static void test_resolution_exclusive(void)
     EXPECT_ERROR(BASE, ov2, 1, "fluid.cells_per_radius = 1.2: out of range; allowed: [1.5, inf)");
 }
 
+/* dt = (tau - 1/2) dx^2 / (3 nu) underflowed to 0 for fluid.dx = 1e-300 m and
+ * the scene was refused for "contacts.contact_time = 0: out of range", the
+ * default 10 dt, a key the file did not have; now the key that set dx is
+ * named with the range that keeps dx^2 and dt usable (DBL_MIN to DBL_MAX / 10
+ * for dt: sqrt(DBL_MIN / k) to sqrt(DBL_MAX / 10 / k) for dx, k = (tau - 1/2)
+ * / (3 nu) = 1e5 s/m^2 in the base scene). */
+static void test_step_underflow(void)
+{
+    EXPECT_SET_ERROR("fluid.dx=1e-300",
+                     "scene.yaml (--set fluid.dx=1e-300): fluid.dx = 1e-300 m gives the step dt = (tau - 1/2) dx^2 "
+                     "/ (3 nu) = 0 s with fluid.tau = 0.8",
+                     "allowed: fluid.dx in [4.71706885524e-157, 1.34078079299e+151] m for this tau and viscosity");
+    EXPECT_SET_ERROR("fluid.dx=1e200", "fluid.dx = 1e+200 m gives the step dt = (tau - 1/2) dx^2 / (3 nu) = inf s");
+    const char *const cpr[] = {"fluid={density: 1000.0, viscosity: 1.0e-6, cells_per_radius: 1e300, tau: 0.8}"};
+    EXPECT_ERROR(BASE, cpr, 1, "fluid.cells_per_radius = 1e+300 gives fluid.dx = 1e-304 m and the step dt",
+                 "allowed: fluid.cells_per_radius in [1.5, 2.11996057443e+152] for this tau and viscosity");
+    capture_t *cap = malloc(sizeof *cap);
+    CU_ASSERT_PTR_NOT_NULL_FATAL(cap);
+    scene_t *s = NULL;
+    const char *const dx[] = {"fluid.dx=1e-300"};
+    CU_ASSERT_EQUAL(load(BASE, dx, 1, cap, &s), STATUS_ERROR);
+    CU_ASSERT_EQUAL(cap->nerrors, 1);
+    CU_ASSERT_PTR_NULL(strstr(cap->text, "contact_time"));
+    free(cap);
+}
+
 static void test_not_divisible(void)
 {
     EXPECT_SET_ERROR("domain.size=[1e-3, 1e-3, 2.01e-3]",
@@ -982,6 +1008,7 @@ void scene_register_tests(void)
           {"numbers as a whole", test_number_as_written},
           {"out of range", test_out_of_range},
           {"dx/cells_per_radius, tau/dt", test_resolution_exclusive},
+          {"step underflow names fluid.dx", test_step_underflow},
           {"domain not divisible by dx", test_not_divisible},
           {"faces", test_faces},
           {"connections", test_connections},

@@ -166,6 +166,16 @@ static const bad_scene_t CASES[] = {
     {10, "  dt: 1.0e-300", NULL, {NULL}, 1,
      "scene.yaml:10: fluid.dt = 1e-300 gives tau = 0.5 + 3 nu dt / dx^2 = 0.5; allowed: a dt for which tau is in "
      "(0.5, inf)"},
+    /* dt = (tau - 1/2) dx^2 / (3 nu) underflowed to 0: the scene was refused for
+     * "contacts.contact_time = 0" (its default, 10 dt), without a line or fluid.dx */
+    {9, "  dx: 1.0e-300", NULL, {NULL}, 1,
+     "scene.yaml:9: fluid.dx = 1e-300 m gives the step dt = (tau - 1/2) dx^2 / (3 nu) = 0 s with fluid.tau = 0.8 and "
+     "fluid.viscosity = 1e-06 m^2/s, outside the steps a run can take, [2.22507385851e-308, 1.79769313486e+307] s; "
+     "allowed: fluid.dx in [4.71706885524e-157, 1.34078079299e+151] m for this tau and viscosity"},
+    {0, NULL, NULL, {"fluid={density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-300, dt: 1.0e-5}"}, 1,
+     "scene.yaml (--set fluid={density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-300, dt: 1.0e-5}): fluid.dx = 1e-300 m "
+     "gives dx^2 = 0 m^2, from which tau = 1/2 + 3 nu dt / dx^2 cannot be computed; allowed: fluid.dx in "
+     "[1.49166814624e-154, 1.34078079299e+154] m"},
     {9, "  cells_per_radius: -2", NULL, {NULL}, 1,
      "scene.yaml:9: fluid.cells_per_radius = -2: out of range; allowed: [1.5, inf)"},
     /* the Mach limit of the fluid's check: (0, 1] (the lattice cannot carry Mach 1) */

@@ -18,6 +18,7 @@
 #include "../../common/scene.h"
 
 #include <fcntl.h>
+#include <float.h>
 #include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
@@ -119,8 +120,8 @@ static void check_scene(const scene_t *s)
         ok = ok && in_range(s->domain.size[a], 0x1p-1074, INFINITY);
     }
     const scene_fluid_t *f = &s->fluid;
-    ok = ok && f->dx > 0 && isfinite(f->dx) && f->dt > 0 && isfinite(f->dt) && f->tau > 0.5 && isfinite(f->tau) &&
-         f->density > 0 && f->viscosity > 0;
+    ok = ok && f->dx > 0 && isfinite(f->dx) && f->dt >= DBL_MIN && isfinite(10 * f->dt) && f->tau > 0.5 &&
+         isfinite(f->tau) && f->density > 0 && f->viscosity > 0;
     ok = ok && s->nbodies >= 0 && (s->nbodies == 0) == (s->bodies == NULL);
     int ns = 0;
     for (int i = 0; ok && i < s->nbodies; i++) {
