@@ -468,6 +468,7 @@ void scene_build(ctx_t *c, const raw_scene_t *r, scene_t *s)
     }
     scene_check_spheres(c, s, domain_ok, dx_ok);
     scene_check_overlaps(c, s, domain_ok);
+    scene_check_buried(c, s, domain_ok);
     if (domain_ok && c->nerrors == 0) {
         scene_unwrap_bodies(s);
     }

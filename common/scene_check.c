@@ -4,11 +4,12 @@
  * finite vector, a whole number) and of the scene's physical consistency: a
  * resolution whose step dt is a usable number, the domain a whole number of
  * cells, spheres resolved and inside the domain, no overlap between bodies at
- * start, walls for the plane-channel profile, at most half a cell per step at
- * a sphere surface, time scales against the fluid step, a run whose steps can
- * be counted, the lubrication film's saturation gap below its cut-off. A
- * failing check reports key, value and allowed range (scene_report.c); an
- * error refuses the scene, a warning is only logged. */
+ * start, no sphere buried in another of its body, walls for the plane-channel
+ * profile, at most half a cell per step at a sphere surface, time scales
+ * against the fluid step, a run whose steps can be counted, the lubrication
+ * film's saturation gap below its cut-off. A failing check reports key,
+ * value and allowed range (scene_report.c); an error refuses the scene, a
+ * warning is only logged. */
 #include "scene_internal.h"
 
 #include <ctype.h>
@@ -375,6 +376,73 @@ void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok)
                                          fmt_vec(q->center, 3).s, gj, j, gi, i, fmt_vec(p->center, 3).s,
                                          fmt_num(dist).s, fmt_num(rsum).s);
                     }
+                }
+            }
+        }
+    }
+}
+
+/* A sphere of a body buried in another sphere of the same body. The rigid
+ * component splits a body's volume between its spheres at the radical plane
+ * of each overlapping pair, the plane of the circle where their surfaces meet
+ * (rigid/body.c), and needs that plane to pass between the two centres:
+ * t = (d^2 + r^2 - R^2) / (2 d) > 0 for the smaller sphere (radius r; R the
+ * other, d the centre distance), as it computes it. A sphere entirely inside
+ * another (d + r <= R), or deep enough that its centre lies beyond that
+ * plane, or one that coincides with another (d = 0) passed `coupler check`
+ * and was then refused by the rigid component at start-up ("distance inf m",
+ * "-nan m" for two equal coincident spheres). The smaller sphere is named
+ * (the later of two equal ones); on periodic axes the nearest image counts. */
+static void check_buried_pair(ctx_t *c, const scene_t *s, int i, int k, int j, int gk, int gj, bool domain_ok)
+{
+    const scene_sphere_t *p = &s->bodies[i].spheres[k], *q = &s->bodies[i].spheres[j];
+    double d2 = 0;
+    for (int a = 0; a < 3; a++) {
+        double d = p->center[a] - q->center[a];
+        if (domain_ok && axis_periodic(s, a)) {
+            d -= s->domain.size[a] * round(d / s->domain.size[a]);
+        }
+        d2 += d * d;
+    }
+    const double d = sqrt(d2), r = p->radius, R = q->radius;
+    if (!isfinite(d) || !(r > 0) || !(R > 0) || !isfinite(r + R)) {
+        return; /* already reported */
+    }
+    if (d >= r + R || (d > 0 && d * d + r * r - R * R > 0)) {
+        return; /* apart, touching, or sintered with the plane between the centres */
+    }
+    char key[SCENE_KEY_MAX], how[SCENE_MSG_MAX / 4];
+    if (d == 0) {
+        snprintf(how, sizeof how, "the two centres coincide, so it adds nothing to the body: remove it");
+    } else if (d + r <= R) {
+        snprintf(how, sizeof how,
+                 "it lies entirely inside (centre distance %s m + radius %s m <= %s m), so it adds nothing to the "
+                 "body: remove it",
+                 fmt_num(d).s, fmt_num(r).s, fmt_num(R).s);
+    } else {
+        snprintf(how, sizeof how, "its centre lies beyond the plane where the two surfaces meet (centre distance %s m)",
+                 fmt_num(d).s);
+    }
+    snprintf(key, sizeof key, "bodies.%d.spheres.%d.center", i, k);
+    scene_report_bad(c, key,
+                     "= %s (sphere %d, radius %s m, body %d) is buried in sphere %d of the same body at %s (radius %s "
+                     "m): %s; allowed: centre distance > sqrt(R^2 - r^2) = %s m, the plane where the surfaces meet "
+                     "between the centres (the rigid component splits the body's volume between its spheres there)",
+                     fmt_vec(p->center, 3).s, gk, fmt_num(r).s, i, gj, fmt_vec(q->center, 3).s, fmt_num(R).s, how,
+                     fmt_num(sqrt(R * R - r * r)).s);
+}
+
+void scene_check_buried(ctx_t *c, const scene_t *s, bool domain_ok)
+{
+    int g0 = 0; /* global index of the body's first sphere */
+    for (int i = 0; i < s->nbodies; g0 += s->bodies[i].nspheres, i++) {
+        const scene_body_t *b = &s->bodies[i];
+        for (int k = 1; k < b->nspheres; k++) {
+            for (int j = 0; j < k; j++) {
+                if (b->spheres[k].radius <= b->spheres[j].radius) {
+                    check_buried_pair(c, s, i, k, j, g0 + k, g0 + j, domain_ok);
+                } else {
+                    check_buried_pair(c, s, i, j, k, g0 + j, g0 + k, domain_ok);
                 }
             }
         }

@@ -272,6 +272,8 @@ bool scene_check_step(ctx_t *c, const char *key, const scene_t *s, double rmin, 
 void scene_check_divisible(ctx_t *c, const scene_t *s);
 void scene_check_spheres(ctx_t *c, const scene_t *s, bool domain_ok, bool dx_ok);
 void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok);
+/* No sphere buried in another of its own body (beyond their radical plane). */
+void scene_check_buried(ctx_t *c, const scene_t *s, bool domain_ok);
 /* relative: spheres of a body touch when d <= (r_a + r_b)(1 + tol), as the
  * rigid component counts them (RIGID_TOUCH_TOL) */
 #define SCENE_TOUCH_TOL 1e-9

@@ -848,6 +848,44 @@ static void test_overlap(void)
     /* spheres of one body may overlap (sintered): the base scene has that */
 }
 
+/* A sphere buried in another sphere of its own body (entirely inside, its
+ * centre beyond the plane where their surfaces meet, or coinciding) passed
+ * `coupler check` and was refused by the rigid component at start-up
+ * ("distance inf m", "-nan m"): the rigid component splits a body's volume at
+ * that plane and needs it between the centres, d > sqrt(R^2 - r^2)
+ * (rigid/body.c). Body 0 of the base scene: sphere 0 at x = 5e-4 m, radius
+ * 1e-4 m; sphere 1 replaced. */
+static void test_buried_spheres(void)
+{
+    EXPECT_SET_ERROR("bodies.0.spheres.1={center: [5.2e-4, 5e-4, 5e-4], radius: 5e-5}",
+                     "bodies.0.spheres.1.center = [0.00052, 0.0005, 0.0005] (sphere 1, radius 5e-05 m, body 0) is "
+                     "buried in sphere 0 of the same body at [0.0005, 0.0005, 0.0005] (radius 0.0001 m): it lies "
+                     "entirely inside (centre distance 2e-05 m + radius 5e-05 m <= 0.0001 m), so it adds nothing to "
+                     "the body: remove it; allowed: centre distance > sqrt(R^2 - r^2) = 8.66025403784e-05 m");
+    EXPECT_SET_ERROR("bodies.0.spheres.1.center=[5e-4, 5e-4, 5e-4]",
+                     "bodies.0.spheres.1.center = [0.0005, 0.0005, 0.0005] (sphere 1, radius 0.0001 m, body 0) is "
+                     "buried in sphere 0 of the same body at [0.0005, 0.0005, 0.0005] (radius 0.0001 m): the two "
+                     "centres coincide", "allowed: centre distance > sqrt(R^2 - r^2) = 0 m");
+    /* sticking out, but the centre beyond the plane; the smaller sphere is named, here the first */
+    EXPECT_SET_ERROR("bodies.0.spheres.0={center: [5.7e-4, 5e-4, 5e-4], radius: 5e-5}",
+                     "bodies.0.spheres.0.center = [0.00057, 0.0005, 0.0005] (sphere 0, radius 5e-05 m, body 0) is "
+                     "buried in sphere 1 of the same body at [0.00065, 0.0005, 0.0005] (radius 0.0001 m): its centre "
+                     "lies beyond the plane where the two surfaces meet (centre distance 8e-05 m); allowed: centre "
+                     "distance > sqrt(R^2 - r^2) = 8.66025403784e-05 m");
+    /* across the periodic x face: the nearest image, 3e-5 m away */
+    const char *const across[] = {"bodies.0.spheres=[{center: [0.2e-4, 5e-4, 5e-4], radius: 1e-4}, "
+                                  "{center: [9.9e-4, 5e-4, 5e-4], radius: 5e-5}]"};
+    EXPECT_ERROR(BASE, across, 1, "bodies.0.spheres.1.center = [0.00099, 0.0005, 0.0005] (sphere 1, radius 5e-05 m, "
+                 "body 0) is buried in sphere 0", "centre distance 3e-05 m + radius 5e-05 m <= 0.0001 m");
+    /* just beyond the limit: sintered, loads (as the rigid component takes it) */
+    capture_t cap;
+    scene_t *s = NULL;
+    const char *const ok[] = {"bodies.0.spheres.1={center: [5.87e-4, 5e-4, 5e-4], radius: 5e-5}"};
+    CU_ASSERT_EQUAL(load(BASE, ok, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_EQUAL(cap.nerrors, 0);
+    scene_free(s);
+}
+
 /* A body given across a periodic face is made one piece: each centre moves
  * to the image nearest a sphere it touches, from the first sphere on; a
  * chain longer than half the period (here 0.6 mm of 1 mm) too, where the
@@ -1014,6 +1052,7 @@ void scene_register_tests(void)
           {"connections", test_connections},
           {"spheres in domain", test_spheres_in_domain},
           {"overlapping bodies", test_overlap},
+          {"sphere buried in its own body", test_buried_spheres},
           {"radius in cells", test_radius_cells},
           {"prescribed speed", test_prescribed_speed},
           {"run length countable", test_run_length},

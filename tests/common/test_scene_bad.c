@@ -76,15 +76,25 @@ static char *deep_unclosed(void)
     return repeat(MINIMAL "contacts: ", "{a: ", 3000, "", "", 0, "\n");
 }
 
-/* Two bodies of 400 spheres each, all at the same place: 160 000 overlapping
- * pairs of spheres of different bodies (spheres of one body may overlap). */
+/* Two bodies of 400 spheres each, in the same place: 160 000 overlapping
+ * pairs of spheres of different bodies. Spheres of one body may overlap, but
+ * not coincide (scene_check_buried): a body's spheres are 1e-7 m apart in x. */
 static char *many_overlapping_spheres(void)
 {
-    static const char sphere[] = "{center: [5.0e-4, 5.0e-4, 5.0e-4], radius: 2.0e-4}, ";
-    char *b0 = repeat(MINIMAL "bodies:\n  - {density: 2000.0, spheres: [", sphere, 399, "", "", 0, "");
-    char *all = repeat(b0, sphere, 1, "]}\n  - {density: 2000.0, spheres: [", sphere, 400, "]}\n");
-    free(b0);
-    return all;
+    static const char head[] = MINIMAL "bodies:\n";
+    static const char body[] = "  - {density: 2000.0, spheres: [";
+    const size_t sphere_max = 64; /* one sphere's text */
+    char *out = malloc(sizeof head + 2 * (sizeof body + 400 * sphere_max + 4));
+    CU_ASSERT_PTR_NOT_NULL_FATAL(out);
+    char *p = out + sprintf(out, "%s", head);
+    for (int b = 0; b < 2; b++) {
+        p += sprintf(p, "%s", body);
+        for (int k = 0; k < 400; k++) {
+            p += sprintf(p, "%s{center: [%.7e, 5.0e-4, 5.0e-4], radius: 2.0e-4}", k ? ", " : "", 5.0e-4 + 1e-7 * k);
+        }
+        p += sprintf(p, "]}\n");
+    }
+    return out;
 }
 
 /* ------------------------------------------------------------------------ */
@@ -252,6 +262,19 @@ static const bad_scene_t CASES[] = {
      NULL, {NULL}, 2,
      "scene.yaml:15: bodies.0.spheres.0.radius: wrong type or value ('1.0e-4 m' is not a number: ' m' follows "
      "'1.0e-4'); allowed: a number such as 1000, -2.5 or 1.0e-3 (no units, digit separators or leading zeros)"},
+    /* spheres buried in another of their body passed `coupler check`; the
+     * rigid component refused them at start-up ("distance inf m", "-nan m") */
+    {16, "      - {center: [5.2e-4, 5.0e-4, 5.0e-4], radius: 5.0e-5}", NULL, {NULL}, 1,
+     "scene.yaml:16: bodies.0.spheres.1.center = [0.00052, 0.0005, 0.0005] (sphere 1, radius 5e-05 m, body 0) is "
+     "buried in sphere 0 of the same body at [0.0005, 0.0005, 0.0005] (radius 0.0001 m): it lies entirely inside "
+     "(centre distance 2e-05 m + radius 5e-05 m <= 0.0001 m), so it adds nothing to the body: remove it; allowed: "
+     "centre distance > sqrt(R^2 - r^2) = 8.66025403784e-05 m, the plane where the surfaces meet between the centres "
+     "(the rigid component splits the body's volume between its spheres there)"},
+    {16, "      - {center: [5.0e-4, 5.0e-4, 5.0e-4], radius: 1.0e-4}", NULL, {NULL}, 1,
+     "scene.yaml:16: bodies.0.spheres.1.center = [0.0005, 0.0005, 0.0005] (sphere 1, radius 0.0001 m, body 0) is "
+     "buried in sphere 0 of the same body at [0.0005, 0.0005, 0.0005] (radius 0.0001 m): the two centres coincide, so "
+     "it adds nothing to the body: remove it; allowed: centre distance > sqrt(R^2 - r^2) = 0 m, the plane where the "
+     "surfaces meet between the centres (the rigid component splits the body's volume between its spheres there)"},
     /* logged n^2 messages: now the first 50 and one that counts the rest */
     {0, NULL, many_overlapping_spheres, {NULL}, 51,
      "scene.yaml:6: bodies.1.spheres.0.center = [0.0005, 0.0005, 0.0005] (sphere 400, body 1) overlaps sphere 0 of "
