@@ -39,7 +39,7 @@ typedef struct {
     int ny, nz;
     uint32_t *start;  /* ny nz + 1 */
     int32_t (*run)[2];
-    int32_t *xs;      /* kernel_skip_build's scratch: the cells' x, row by row */
+    int32_t (*tmp)[2]; /* kernel_skip_build's scratch: the runs given, row by row */
     size_t cap_run;
     long map;         /* the sphere map it was built for (spheres_t.maps) */
 } kernel_skip_t;
@@ -51,10 +51,12 @@ typedef struct {
     const kernel_skip_t *skip; /* in place: the cells left alone (NULL: none; two arrays: ignored) */
 } kernel_params_t;
 
-/* The runs of k for the n cells (grid indices of g; cells outside the
- * interior ignored, a cell listed twice taken once): 0 when out of memory
- * (k is then empty, and a kernel given it updates every cell). */
-int kernel_skip_build(kernel_skip_t *k, const grid_t *g, const size_t *cells, size_t n);
+/* The runs of k from nparts lists of runs (part p: nruns[p] runs of
+ * interior row, first x, last x), which may overlap and come in any order:
+ * 0 when out of memory (k is then empty, and a kernel given it updates
+ * every cell). O(runs + rows): after every map that moved a sphere. */
+int kernel_skip_build(kernel_skip_t *k, const grid_t *g, int nparts, const int32_t (*const *runs)[3],
+                      const size_t *nruns);
 void kernel_skip_free(kernel_skip_t *k);
 
 /* omega_minus for the magic parameter Lambda = (1/w+ - 1/2)(1/w- - 1/2)

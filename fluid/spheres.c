@@ -223,6 +223,7 @@ void spheres_free(spheres_t *sp)
         free(sp->lists[k].l);
         free(sp->lists[k].carry);
         free(sp->lists[k].inside);
+        free(sp->lists[k].runs);
         free(sp->lists[k].oldkey);
         free(sp->lists[k].near);
         free(sp->lists[k].cand);
@@ -268,6 +269,7 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
     const sphere_t *p = &sp->s[k];
     link_list_t *list = &sp->lists[k];
     list->ninside = 0;
+    list->nruns = 0;
     if (!spheres_near_block(sp, p->c, p->r, sp->lo, sp->nb)) {
         return STATUS_OK; /* another rank's sphere */
     }
@@ -299,6 +301,12 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
             if (!spheres_grow((void **)&list->inside, &list->capinside, list->ninside + row, sizeof *list->inside)) {
                 return STATUS_ERROR;
             }
+            /* the row's cells inside as runs: one for the row of an inner box
+             * (a sphere meets a row in one piece), else a run per cell */
+            if (!spheres_grow((void **)&list->runs, &list->capruns, list->nruns + (inner ? 1 : row), sizeof *list->runs)) {
+                return STATUS_ERROR;
+            }
+            int32_t *run = NULL;
             const double dy = X[1] - p->c[1], dz = X[2] - p->c[2];
             for (X[0] = x0; X[0] <= x1; X[0]++) {
                 const double dx = X[0] - p->c[0];
@@ -317,6 +325,14 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
                 const size_t i = grid_index(g, Y[0], Y[1], Y[2]);
                 list->inside[list->ninside++] = i;
                 cellflags_or_atomic(flags, i, FLAG_MARK);
+                if (grid_is_interior(g, Y[0], Y[1], Y[2])) {
+                    if (run == NULL || !inner) {
+                        run = list->runs[list->nruns++];
+                        run[0] = (Y[1] - 1) + g->n[1] * (Y[2] - 1);
+                        run[1] = Y[0];
+                    }
+                    run[2] = Y[0];
+                }
             }
         }
     }

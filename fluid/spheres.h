@@ -128,6 +128,9 @@ typedef struct {
     spheres_carry_t *carry; /* the pairs of the last links while they are rebuilt, in key order */
     size_t ncarry, capcarry;
     size_t *inside;         /* the cells inside the sphere at the last map (spheres_map) */
+    int32_t (*runs)[3];     /* the same cells of the block's interior as runs along x: interior row
+                             * (y - 1) + ny (z - 1), first and last x (the update skips them) */
+    size_t nruns, capruns;
     uint64_t *oldkey;       /* the keys of the links before a rebuild of this list alone (sphere_links.c) */
     size_t nold, capold;
     size_t ninside, capinside;

@@ -49,9 +49,22 @@ static void update(fluid_t *fl, const kernel_box_t *b, int skip)
 static void skip_refresh(fluid_t *fl)
 {
     const spheres_t *sp = &fl->spheres;
-    if (fl->skip_on && fl->skip.map != sp->maps && kernel_skip_build(&fl->skip, &fl->g, sp->solid, sp->nsolid)) {
-        fl->skip.map = sp->maps;
+    if (!fl->skip_on || fl->skip.map == sp->maps) {
+        return;
     }
+    const int32_t(**runs)[3] = malloc((size_t)sp->n * sizeof *runs);
+    size_t *nruns = malloc((size_t)sp->n * sizeof *nruns);
+    if (runs != NULL && nruns != NULL) {
+        for (int k = 0; k < sp->n; k++) {
+            runs[k] = (const int32_t(*)[3])sp->lists[k].runs;
+            nruns[k] = sp->lists[k].nruns;
+        }
+        if (kernel_skip_build(&fl->skip, &fl->g, sp->n, runs, nruns)) {
+            fl->skip.map = sp->maps;
+        }
+    }
+    free(runs);
+    free(nruns);
 }
 
 /* Slices of the inner cells per exchanged axis, with MPI progress between. */
