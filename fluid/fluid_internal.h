@@ -62,6 +62,21 @@ struct fluid {
     char *path; /* scene file, for messages */
 };
 
+/* The head of a saved state (state.c; tests corrupt its fields one at a
+ * time). */
+typedef struct {
+    uint64_t magic;
+    int32_t n[3];
+    int32_t nspheres;
+    int64_t step;
+    uint64_t ncells;
+    uint64_t nsolid;
+    int64_t covered, uncovered;
+    int32_t first;
+    int16_t streaming, layout;
+    int32_t single, pad;
+} fluid_state_header_t;
+
 /* The populations of f[cur] with the maps of its layout state. */
 static inline pops_t fluid_pops(const fluid_t *fl)
 {

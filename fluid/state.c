@@ -34,22 +34,10 @@
 
 #define STATE_MAGIC 0x464c5549444c4234ull /* "FLUIDLB4": the cell flags two to a byte (cellflags.h) */
 
-typedef struct {
-    uint64_t magic;
-    int32_t n[3];
-    int32_t nspheres;
-    int64_t step;
-    uint64_t ncells;
-    uint64_t nsolid;
-    int64_t covered, uncovered;
-    int32_t first;
-    int16_t streaming, layout;
-    int32_t single, pad;
-} state_header_t;
 
 size_t fluid_state_size(const fluid_t *fl)
 {
-    return sizeof(state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.stride * fluid_value_bytes(fl) + cellflags_bytes(fl->g.ncells) +
+    return sizeof(fluid_state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.stride * fluid_value_bytes(fl) + cellflags_bytes(fl->g.ncells) +
            (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t) +
            spheres_pairs_bytes(&fl->spheres);
 }
@@ -60,7 +48,7 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "state buffer of %zu bytes is smaller than the %zu needed",
                        size, fluid_state_size(fl));
     }
-    state_header_t h;
+    fluid_state_header_t h;
     memset(&h, 0, sizeof h);
     h.magic = STATE_MAGIC;
     for (int a = 0; a < 3; a++) {
@@ -279,7 +267,7 @@ static status_t check_pairs(const fluid_t *fl, const unsigned char *buf, size_t 
 
 status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
 {
-    state_header_t h;
+    fluid_state_header_t h;
     if (size < sizeof h) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "state of %zu bytes is too short", size);
     }

@@ -312,4 +312,12 @@ void rigid_touch_update(rigid_t *r); /* records which pairs touch now; follows b
  * joining them, else r_i + r_j. */
 double rigid_contact_reference(const rigid_t *r, int i, int j);
 
+/* ---- state.c: the head of a saved state (tests corrupt its fields one at a time) ---- */
+typedef struct {
+    uint32_t magic, version;
+    int32_t nspheres, nbodies, nconn, integrator;
+    int32_t have_prev, pad;
+    double t, h_prev;
+} rigid_state_header_t;
+
 #endif

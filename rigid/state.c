@@ -31,16 +31,9 @@
 #define RIGID_STATE_MAGIC 0x52494744u /* "RIGD" */
 #define RIGID_STATE_VERSION 2u /* 2: the implicit coupling's debt_f, debt_t */
 
-typedef struct {
-    uint32_t magic, version;
-    int32_t nspheres, nbodies, nconn, integrator;
-    int32_t have_prev, pad;
-    double t, h_prev;
-} state_header_t;
-
 static size_t state_bytes(int ns, int nb, int nc)
 {
-    return sizeof(state_header_t) + (size_t)ns * sizeof(rigid_sphere_t) + (size_t)nb * sizeof(rigid_body_t) +
+    return sizeof(rigid_state_header_t) + (size_t)ns * sizeof(rigid_sphere_t) + (size_t)nb * sizeof(rigid_body_t) +
            (size_t)nc * sizeof(rigid_conn_t) + (size_t)ns * (size_t)ns;
 }
 
@@ -53,7 +46,7 @@ status_t rigid_state_save(const rigid_t *r, void *buf, size_t size)
         return log_msg((log_t *)&r->log, STATUS_ERROR, RIGID_CAT, "state buffer of %zu bytes too small (need %zu)",
                        size, need);
     }
-    state_header_t h;
+    rigid_state_header_t h;
     memset(&h, 0, sizeof h);
     h.magic = RIGID_STATE_MAGIC;
     h.version = RIGID_STATE_VERSION;
@@ -205,7 +198,7 @@ static status_t check_conn(const rigid_t *r, int k, const rigid_conn_t *c)
 
 /* Everything after the header: the records from the buffer one at a time
  * (the buffer need not be aligned). */
-static status_t check_records(const rigid_t *r, const state_header_t *h, const unsigned char *p)
+static status_t check_records(const rigid_t *r, const rigid_state_header_t *h, const unsigned char *p)
 {
     const int ns = h->nspheres, nb = h->nbodies;
     double *mass = calloc((size_t)nb, sizeof *mass);
@@ -249,7 +242,7 @@ done:
 
 status_t rigid_state_restore(rigid_t *r, const void *buf, size_t size)
 {
-    state_header_t h;
+    rigid_state_header_t h;
     if (buf == NULL || size < sizeof h) {
         return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "state of %zu bytes is too short", size);
     }

@@ -567,19 +567,6 @@ static void test_state_restore_bit_identical(void)
 
 /* The header of a fluid state (fluid/state.c, state_header_t), to corrupt
  * its fields one at a time. */
-typedef struct {
-    uint64_t magic;
-    int32_t n[3];
-    int32_t nspheres;
-    int64_t step;
-    uint64_t ncells;
-    uint64_t nsolid;
-    int64_t covered, uncovered;
-    int32_t first;
-    int16_t streaming, layout;
-    int32_t single, pad;
-} state_header_copy_t;
-
 /* buf with len bytes at off replaced by v: refused with expect in the message. */
 static void expect_refused(fluid_t *r, const test_log_t *tl, const unsigned char *buf, size_t n, size_t off,
                            const void *v, size_t len, const char *expect)
@@ -629,7 +616,7 @@ static void test_state_corruption_refused(void)
     /* where the parts are (fluid/state.c's layout) */
     const grid_t *g = &a->g;
     const size_t nsolid = a->spheres.nsolid, fbytes = (size_t)LB_Q * g->stride * sizeof(double);
-    const size_t off_flags = sizeof(state_header_copy_t) + fbytes, off_sph = off_flags + cellflags_bytes(g->ncells);
+    const size_t off_flags = sizeof(fluid_state_header_t) + fbytes, off_sph = off_flags + cellflags_bytes(g->ncells);
     const size_t off_solid = off_sph + sizeof(sphere_t), off_pairs = off_solid + nsolid * sizeof(size_t);
     CU_ASSERT_FATAL(off_pairs + spheres_pairs_bytes(&a->spheres) == n);
     uint64_t npairs;
@@ -644,13 +631,13 @@ static void test_state_corruption_refused(void)
     const uint64_t many = (uint64_t)1 << 61, one_more = nsolid + 1;
     const int32_t seven = 7;
     const int16_t pull = 0;
-    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, step), &neg, 8, "step -5");
-    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, step), &huge, 8, "allowed: 0 to 2^53");
-    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, covered), &neg, 8, "covered -5");
-    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, first), &seven, 4, "first map 7");
-    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, layout), &pull, 2, "layout state 0");
-    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, nsolid), &many, 8, "solid cells; allowed");
-    expect_refused(r, &tl, buf, n, offsetof(state_header_copy_t, nsolid), &one_more, 8, "are listed");
+    expect_refused(r, &tl, buf, n, offsetof(fluid_state_header_t, step), &neg, 8, "step -5");
+    expect_refused(r, &tl, buf, n, offsetof(fluid_state_header_t, step), &huge, 8, "allowed: 0 to 2^53");
+    expect_refused(r, &tl, buf, n, offsetof(fluid_state_header_t, covered), &neg, 8, "covered -5");
+    expect_refused(r, &tl, buf, n, offsetof(fluid_state_header_t, first), &seven, 4, "first map 7");
+    expect_refused(r, &tl, buf, n, offsetof(fluid_state_header_t, layout), &pull, 2, "layout state 0");
+    expect_refused(r, &tl, buf, n, offsetof(fluid_state_header_t, nsolid), &many, 8, "solid cells; allowed");
+    expect_refused(r, &tl, buf, n, offsetof(fluid_state_header_t, nsolid), &one_more, 8, "are listed");
     /* the cell flags: 3 is no flag, a ghost cell made fluid, a solid cell not in the list */
     const unsigned sh_f = (unsigned)(fluid_cell & 1) * 4, sh_g = (unsigned)(ghost_cell & 1) * 4;
     const unsigned char bf = buf[off_flags + fluid_cell / 2], bg = buf[off_flags + ghost_cell / 2];

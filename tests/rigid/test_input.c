@@ -152,15 +152,6 @@ static void restart_case(rigid_integrator_t integ)
     rigid_free(bb);
 }
 
-/* The header of a rigid state (rigid/state.c, state_header_t), to corrupt
- * its fields one at a time. */
-typedef struct {
-    uint32_t magic, version;
-    int32_t nspheres, nbodies, nconn, integrator;
-    int32_t have_prev, pad;
-    double t, h_prev;
-} rigid_header_copy_t;
-
 /* buf with len bytes at off replaced by v: refused with expect in the message. */
 static void rigid_refused(rigid_t *r, const test_log_t *tl, const unsigned char *buf, size_t n, size_t off,
                           const void *v, size_t len, const char *expect)
@@ -206,17 +197,17 @@ static void test_state_corruption_refused(void)
     CU_ASSERT_FATAL(buf != NULL && fresh != NULL && after != NULL);
     CU_ASSERT_EQUAL_FATAL(rigid_state_save(a, buf, n), STATUS_OK);
     CU_ASSERT_EQUAL_FATAL(rigid_state_save(r, fresh, n0), STATUS_OK);
-    const size_t hs = sizeof(rigid_header_copy_t), sph = hs, bod = sph + 3 * sizeof(rigid_sphere_t);
+    const size_t hs = sizeof(rigid_state_header_t), sph = hs, bod = sph + 3 * sizeof(rigid_sphere_t);
     const size_t con = bod + 2 * sizeof(rigid_body_t), touch = con + sizeof(rigid_conn_t);
     CU_ASSERT_FATAL(touch + 9 == n);
     /* the header */
     const int32_t zero = 0, many = 1000, four = 4;
     const double nan = NAN, inf = INFINITY, neg = -1.0, twice = 2e-3;
-    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, nbodies), &zero, 4, "does not fit");
-    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, nconn), &many, 4, "truncated");
-    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, t), &nan, 8, "time nan");
-    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, h_prev), &neg, 8, "previous step -1");
-    rigid_refused(r, &tl, buf, n, offsetof(rigid_header_copy_t, have_prev), &four, 4, "have_prev 4");
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_state_header_t, nbodies), &zero, 4, "does not fit");
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_state_header_t, nconn), &many, 4, "truncated");
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_state_header_t, t), &nan, 8, "time nan");
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_state_header_t, h_prev), &neg, 8, "previous step -1");
+    rigid_refused(r, &tl, buf, n, offsetof(rigid_state_header_t, have_prev), &four, 4, "have_prev 4");
     /* the spheres: what the scene fixes, their body, finite values */
     const int body7 = 7, scene_body = 1;
     rigid_refused(r, &tl, buf, n, sph + offsetof(rigid_sphere_t, radius), &twice, 8, "sphere 0: radius 0.002");
