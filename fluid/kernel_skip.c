@@ -70,7 +70,9 @@ int kernel_skip_build(kernel_skip_t *k, const grid_t *g, int nparts, const int32
     for (int p = 0; p < nparts; p++) {
         for (size_t j = 0; j < nruns[p]; j++) {
             const size_t r = (size_t)runs[p][j][0];
-            start[(r < rows ? r : rows - 1) + 1] += r < rows;
+            if (r < rows) {
+                start[r + 1]++;
+            }
         }
     }
     for (size_t r = 0; r < rows; r++) {
