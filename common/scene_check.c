@@ -291,6 +291,21 @@ static bool axis_periodic(const scene_t *s, int a)
     return s->domain.faces[2 * a].type == FACE_PERIODIC;
 }
 
+/* d = b - a at the nearest image along the periodic axes (with periodic;
+ * else as given), and its length. */
+static double image_diff(const scene_t *s, const double a[3], const double b[3], bool periodic, double d[3])
+{
+    double d2 = 0.0;
+    for (int k = 0; k < 3; k++) {
+        d[k] = b[k] - a[k];
+        if (periodic && axis_periodic(s, k)) {
+            d[k] -= s->domain.size[k] * round(d[k] / s->domain.size[k]);
+        }
+        d2 += d[k] * d[k];
+    }
+    return sqrt(d2);
+}
+
 void scene_check_spheres(ctx_t *c, const scene_t *s, bool domain_ok, bool dx_ok)
 {
     char key[SCENE_KEY_MAX];
@@ -358,15 +373,9 @@ void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok)
             for (int j = i + 1; j < s->nbodies; j++) {
                 for (int l = 0; l < s->bodies[j].nspheres; l++, gj++) {
                     const scene_sphere_t *q = &s->bodies[j].spheres[l];
-                    double d2 = 0;
-                    for (int a = 0; a < 3; a++) {
-                        double d = p->center[a] - q->center[a];
-                        if (domain_ok && axis_periodic(s, a)) {
-                            d -= s->domain.size[a] * round(d / s->domain.size[a]);
-                        }
-                        d2 += d * d;
-                    }
-                    double dist = sqrt(d2), rsum = p->radius + q->radius;
+                    double dv[3];
+                    const double dist = image_diff(s, q->center, p->center, domain_ok, dv);
+                    const double rsum = p->radius + q->radius;
                     if (dist < rsum) {
                         snprintf(key, sizeof key, "bodies.%d.spheres.%d.center", j, l);
                         scene_report_bad(c, key,
@@ -396,15 +405,8 @@ void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok)
 static void check_buried_pair(ctx_t *c, const scene_t *s, int i, int k, int j, int gk, int gj, bool domain_ok)
 {
     const scene_sphere_t *p = &s->bodies[i].spheres[k], *q = &s->bodies[i].spheres[j];
-    double d2 = 0;
-    for (int a = 0; a < 3; a++) {
-        double d = p->center[a] - q->center[a];
-        if (domain_ok && axis_periodic(s, a)) {
-            d -= s->domain.size[a] * round(d / s->domain.size[a]);
-        }
-        d2 += d * d;
-    }
-    const double d = sqrt(d2), r = p->radius, R = q->radius;
+    double dv[3];
+    const double d = image_diff(s, q->center, p->center, domain_ok, dv), r = p->radius, R = q->radius;
     if (!isfinite(d) || !(r > 0) || !(R > 0) || !isfinite(r + R)) {
         return; /* already reported */
     }
@@ -472,15 +474,9 @@ void scene_unwrap_bodies(scene_t *s)
             const scene_sphere_t *u = &b->spheres[stack[--top]];
             for (int k = 0; k < b->nspheres; k++) {
                 scene_sphere_t *v = &b->spheres[k];
-                double d[3], d2 = 0.0;
-                for (int a = 0; a < 3; a++) {
-                    d[a] = v->center[a] - u->center[a];
-                    if (axis_periodic(s, a)) {
-                        d[a] -= s->domain.size[a] * round(d[a] / s->domain.size[a]);
-                    }
-                    d2 += d[a] * d[a];
-                }
-                if (seen[k] || sqrt(d2) > (u->radius + v->radius) * (1.0 + SCENE_TOUCH_TOL)) {
+                double d[3];
+                const double touch = (u->radius + v->radius) * (1.0 + SCENE_TOUCH_TOL);
+                if (seen[k] || image_diff(s, u->center, v->center, true, d) > touch) {
                     continue;
                 }
                 for (int a = 0; a < 3; a++) {
@@ -492,11 +488,10 @@ void scene_unwrap_bodies(scene_t *s)
         }
         for (int k = 1; k < b->nspheres; k++) {
             if (seen == NULL || !seen[k]) {
+                double d[3];
+                image_diff(s, b->spheres[0].center, b->spheres[k].center, true, d);
                 for (int a = 0; a < 3; a++) {
-                    if (axis_periodic(s, a)) {
-                        const double L = s->domain.size[a], d = b->spheres[k].center[a] - b->spheres[0].center[a];
-                        b->spheres[k].center[a] -= L * round(d / L);
-                    }
+                    b->spheres[k].center[a] = b->spheres[0].center[a] + d[a];
                 }
             }
         }

@@ -303,7 +303,8 @@ static status_t mark_sphere(spheres_t *sp, const grid_t *g, uint8_t *flags, int 
             }
             /* the row's cells inside as runs: one for the row of an inner box
              * (a sphere meets a row in one piece), else a run per cell */
-            if (!spheres_grow((void **)&list->runs, &list->capruns, list->nruns + (inner ? 1 : row), sizeof *list->runs)) {
+            const size_t nrun = list->nruns + (inner ? 1 : row);
+            if (!spheres_grow((void **)&list->runs, &list->capruns, nrun, sizeof *list->runs)) {
                 return STATUS_ERROR;
             }
             int32_t *run = NULL;
