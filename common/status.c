@@ -40,3 +40,13 @@ void log_stderr(void *ctx, status_t level, const char *category, const char *msg
     (void)ctx;
     fprintf(stderr, "%s: [%s] %s\n", status_name(level), category ? category : "-", msg);
 }
+
+status_t log_state_corrupt(const log_t *log, const char *category, const char *fmt, ...)
+{
+    char msg[1500];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return log_msg(log, STATUS_ERROR, category, "the state is corrupt and was not restored: %s", msg);
+}

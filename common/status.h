@@ -8,7 +8,9 @@
 #ifndef COMMON_STATUS_H
 #define COMMON_STATUS_H
 
+#include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
 
 #define STATUS_LIST(X)            \
     X(STATUS_OK, "ok")            \
@@ -39,6 +41,23 @@ typedef struct {
 status_t log_msg(const log_t *log, status_t level, const char *category, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
 status_t log_vmsg(const log_t *log, status_t level, const char *category, const char *fmt, va_list ap);
+
+/* What a component's state restore says of bytes it refuses, at
+ * STATUS_ERROR: "the state is corrupt and was not restored: " and the
+ * message (fluid/state.c, rigid/state.c). */
+status_t log_state_corrupt(const log_t *log, const char *category, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* 1 when the n values from x on are all finite. */
+static inline int all_finite(const double *x, size_t n)
+{
+    for (size_t k = 0; k < n; k++) {
+        if (!isfinite(x[k])) {
+            return 0;
+        }
+    }
+    return 1;
+}
 
 /* The sink the CLI and tests use: "level: [category] message" on stderr. */
 void log_stderr(void *ctx, status_t level, const char *category, const char *msg);

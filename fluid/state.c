@@ -34,7 +34,6 @@
 
 #define STATE_MAGIC 0x464c5549444c4234ull /* "FLUIDLB4": the cell flags two to a byte (cellflags.h) */
 
-
 size_t fluid_state_size(const fluid_t *fl)
 {
     return sizeof(fluid_state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.stride * fluid_value_bytes(fl) + cellflags_bytes(fl->g.ncells) +
@@ -89,33 +88,14 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
 /* ------------------------------------------------------------------------ */
 /* Checks of a state's contents (fluid_state_restore)                         */
 
+/* A refused state, with what is wrong in it (common/status.h). */
+#define corrupt(fl, ...) log_state_corrupt(&(fl)->log, "fluid", __VA_ARGS__)
+
 /* The step counter: from 0 to 2^53, beyond which step * dt is not exact. */
 #define STATE_STEP_MAX ((int64_t)1 << 53)
 /* Lattice coordinates of a centre off the periodic axes: within 2^30 cells
  * (the cells' coordinates near it are ints). */
 #define STATE_CENTRE_MAX 1073741824.0
-
-static status_t corrupt(const fluid_t *fl, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-
-static status_t corrupt(const fluid_t *fl, const char *fmt, ...)
-{
-    char msg[1500];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    return log_msg(&fl->log, STATUS_ERROR, "fluid", "the state is corrupt and was not restored: %s", msg);
-}
-
-static int all_finite(const double *x, size_t n)
-{
-    for (size_t k = 0; k < n; k++) {
-        if (!isfinite(x[k])) {
-            return 0;
-        }
-    }
-    return 1;
-}
 
 /* Cell flags: 0 fluid, 1 solid, 2 ghost; the ghost cells those of this
  * grid (set at creation, never changed); the solid ones counted. */

@@ -73,27 +73,8 @@ status_t rigid_state_save(const rigid_t *r, void *buf, size_t size)
 /* ------------------------------------------------------------------------ */
 /* Checks of a state's contents (rigid_state_restore)                         */
 
-static status_t corrupt(const rigid_t *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-
-static status_t corrupt(const rigid_t *r, const char *fmt, ...)
-{
-    char msg[1500];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "the state is corrupt and was not restored: %s", msg);
-}
-
-static int all_finite(const double *x, size_t n)
-{
-    for (size_t k = 0; k < n; k++) {
-        if (!isfinite(x[k])) {
-            return 0;
-        }
-    }
-    return 1;
-}
+/* A refused state, with what is wrong in it (common/status.h). */
+#define corrupt(r, ...) log_state_corrupt(&(r)->log, RIGID_CAT, __VA_ARGS__)
 
 /* A run of doubles of a record, by name, for the messages. */
 typedef struct {
