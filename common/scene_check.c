@@ -524,14 +524,11 @@ void scene_check_speeds(ctx_t *c, const scene_t *s)
                 cen[a] += w * b->spheres[k].center[a];
             }
         }
-        double reach = 0;
+        const double centroid[3] = {cen[0] / vol, cen[1] / vol, cen[2] / vol};
+        double reach = 0, d[3];
         for (int k = 0; k < b->nspheres; k++) {
-            double d2 = 0;
-            for (int a = 0; a < 3; a++) {
-                double d = b->spheres[k].center[a] - cen[a] / vol;
-                d2 += d * d;
-            }
-            reach = fmax(reach, sqrt(d2) + b->spheres[k].radius);
+            /* the body is one piece (scene_unwrap_bodies): no images */
+            reach = fmax(reach, image_diff(s, centroid, b->spheres[k].center, false, d) + b->spheres[k].radius);
         }
         const double *v = b->velocity, *w = b->angular_velocity;
         double speed = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) * reach;
