@@ -38,7 +38,7 @@ RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c 
                rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \
                rigid/rigid_scene.c rigid/pairs.c rigid/lubrication.c rigid/contact_watch.c
 # the FMUs' models (their variable lists: the coupler exports them; the tests check them)
-MODEL_SRC   := common/fmi_vars.c common/h5fields.c fluid/fluid_fmi.c rigid/rigid_fmi.c
+MODEL_SRC   := common/fmi_vars.c common/h5fields.c common/h5_cause.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 COUPLER_SRC := coupler/main.c coupler/mpi_env.c coupler/check_ranks.c coupler/bench.c coupler/run.c coupler/signals.c coupler/run_checkpoint.c coupler/fmu.c coupler/output.c coupler/export.c coupler/checkpoint.c coupler/summary.c coupler/resources.c \
                $(MODEL_SRC)
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_boundary.c tests/fluid/test_kernel.c tests/fluid/test_layouts.c tests/fluid/test_schedules.c \
@@ -51,7 +51,7 @@ TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattic
 
 # The field writer on its own with MPI, for tests/python/test_h5fields_mpi.py
 # (parallel HDF5: each process its block, the file the same as one writes).
-H5MPI_SRC   := tests/mpi/h5fields_mpi.c common/h5fields.c common/status.c common/file_held.c
+H5MPI_SRC   := tests/mpi/h5fields_mpi.c common/h5fields.c common/h5_cause.c common/status.c common/file_held.c
 
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 LIB_OBJ     := $(call obj,$(COMMON_SRC) $(FLUID_SRC) $(RIGID_SRC))
@@ -145,7 +145,7 @@ drag-report: deps
 # parallel HDF5 for its field snapshots (common/h5fields.c); it uses MPI only
 # when its master has initialised it (fluid/decomp.c).
 FMI_SRC       := common/fmi_instance.c common/fmi_values.c common/fmi_state.c
-FMU_FLUID_SRC := $(COMMON_SRC) common/fmi_vars.c $(FMI_SRC) common/h5fields.c \
+FMU_FLUID_SRC := $(COMMON_SRC) common/fmi_vars.c $(FMI_SRC) common/h5fields.c common/h5_cause.c \
                  $(filter-out fluid/kernel.c fluid/kernel_single.c fluid/scan.c,$(FLUID_SRC)) fluid/kernel_dispatch.c fluid/fluid_fmi.c
 FMU_RIGID_SRC := $(COMMON_SRC) common/fmi_vars.c $(FMI_SRC) $(RIGID_SRC) rigid/rigid_fmi.c
 # FMUs travel to other machines: the x86-64 baseline (SSE2) instead of

@@ -30,6 +30,8 @@
  * still leave the others waiting in MPI; that is beyond this layer. */
 #include "h5fields.h"
 
+#include "h5_cause.h"
+
 #include "file_held.h"
 
 #include <errno.h>
@@ -76,45 +78,15 @@ static status_t open_file(const char *path, const int n[3], double dx, const h5f
 static status_t remember(h5fields_t *w, long step, double time);
 static status_t write_xmf(h5fields_t *w);
 
-/* The cause of the error on HDF5's stack: the system's message its file
- * driver recorded (sec2: "..., errno = 28, error message = 'No space left on
- * device', ..."), else the innermost description. Read at once after the
- * failed call: the next API call clears the stack. */
-typedef struct {
-    char text[160];
-    int system; /* text is the system's message */
-} h5_cause_t;
-
-static herr_t find_cause(unsigned n, const H5E_error2_t *e, void *data)
-{
-    h5_cause_t *c = data;
-    static const char key[] = "error message = '";
-    const char *p = e->desc != NULL ? strstr(e->desc, key) : NULL;
-    if (p != NULL) {
-        p += sizeof key - 1;
-        const char *q = strchr(p, '\'');
-        snprintf(c->text, sizeof c->text, "%.*s", (int)(q != NULL ? q - p : (ptrdiff_t)strlen(p)), p);
-        c->system = 1;
-        return 1; /* found: stop */
-    }
-    if (n == 0 && e->desc != NULL) {
-        snprintf(c->text, sizeof c->text, "%s", e->desc); /* the innermost, in case nothing says more */
-    }
-    return 0;
-}
-
 /* A failed HDF5 call, logged with its cause. err: errno after a call that
  * writes to the file, cleared before it (0 otherwise): the MPI-IO driver
  * records no system message, but its failed write leaves errno set. */
 static status_t fail_io(const h5fields_t *w, const char *what, int err)
 {
-    h5_cause_t c = {"", 0};
-    H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, find_cause, &c);
-    if (!c.system && err != 0) {
-        snprintf(c.text, sizeof c.text, "%s", strerror(err));
-    }
+    char cause[160];
+    h5_cause(err, cause, sizeof cause);
     return log_msg(&w->log, STATUS_ERROR, "fields", "%s: HDF5 error while writing %s%s%s", w->path, what,
-                   c.text[0] != '\0' ? ": " : "", c.text);
+                   cause[0] != '\0' ? ": " : "", cause);
 }
 
 static status_t fail(const h5fields_t *w, const char *what) { return fail_io(w, what, 0); }

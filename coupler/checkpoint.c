@@ -19,6 +19,8 @@
 
 #include "resources.h"
 
+#include "../common/h5_cause.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <hdf5.h>
@@ -69,12 +71,24 @@ status_t checkpoint_file_hash(const char *path, const log_t *log, char out[17])
 /* ------------------------------------------------------------------------ */
 /* HDF5 helpers: each returns 0 on failure                                   */
 
+/* Why the last put_* failed (h5_cause), taken before its closes clear
+ * HDF5's error stack; checkpoint_write's message names it. One writer at a
+ * time: the checkpoint is written by the master's thread. */
+static char put_cause[160];
+
+static int put_failed(void)
+{
+    h5_cause(0, put_cause, sizeof put_cause);
+    return 0;
+}
+
 static int put_string(hid_t obj, const char *name, const char *value)
 {
     hid_t type = H5Tcopy(H5T_C_S1), space = H5Screate(H5S_SCALAR), a = -1;
     int ok = type >= 0 && space >= 0 && H5Tset_size(type, strlen(value) + 1) >= 0 &&
              (a = H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT)) >= 0 && H5Awrite(a, type, value) >= 0;
-    ok = (a < 0 || H5Aclose(a) >= 0) && ok;
+    ok = ok || put_failed();
+    ok = (a < 0 || H5Aclose(a) >= 0 || put_failed()) && ok;
     if (space >= 0) {
         H5Sclose(space);
     }
@@ -108,7 +122,8 @@ static int put_numbers(hid_t obj, const char *name, hid_t type, const void *v, h
     hid_t space = n == 1 ? H5Screate(H5S_SCALAR) : H5Screate_simple(1, &n, NULL), a = -1;
     int ok = space >= 0 && (a = H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT)) >= 0 &&
              H5Awrite(a, type, v) >= 0;
-    ok = (a < 0 || H5Aclose(a) >= 0) && ok;
+    ok = ok || put_failed();
+    ok = (a < 0 || H5Aclose(a) >= 0 || put_failed()) && ok;
     if (space >= 0) {
         H5Sclose(space);
     }
@@ -150,7 +165,8 @@ static int put_array(hid_t file, const char *name, hid_t type, const void *v, hs
     int ok = space >= 0 && lcpl >= 0 && H5Pset_create_intermediate_group(lcpl, 1) >= 0 &&
              (d = H5Dcreate2(file, name, type, space, lcpl, H5P_DEFAULT, H5P_DEFAULT)) >= 0 &&
              (n == 0 || H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v) >= 0);
-    ok = (d < 0 || H5Dclose(d) >= 0) && ok;
+    ok = ok || put_failed();
+    ok = (d < 0 || H5Dclose(d) >= 0 || put_failed()) && ok;
     if (lcpl >= 0) {
         H5Pclose(lcpl);
     }
@@ -204,17 +220,33 @@ static status_t sync_path(const char *path, int directory, const log_t *log)
     return STATUS_OK;
 }
 
+/* The end of a failed write's message: which checkpoint a restart can take. */
+static const char *kept(const char *path, char *buf, size_t n)
+{
+    if (access(path, F_OK) == 0) {
+        snprintf(buf, n, "the previous checkpoint %s is kept", path);
+    } else {
+        snprintf(buf, n, "no checkpoint was written before");
+    }
+    return buf;
+}
+
 status_t checkpoint_write(const char *path, const scene_t *scene, const checkpoint_origin_t *origin,
                           const checkpoint_t *c, const checkpoint_hooks_t *hooks, const log_t *log)
 {
-    char tmp[4200], dir[4200], block[64];
+    char tmp[4200], dir[4200], block[64], note[4300];
     status_t st = STATUS_OK;
     hid_t f = -1;
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL); /* errors are reported by us */
+    put_cause[0] = '\0';
     if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp) {
         st = log_msg(log, STATUS_ERROR, CAT, "%s: path too long", path);
     } else if ((f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT)) < 0) {
-        st = log_msg(log, STATUS_ERROR, CAT, "%s: cannot create the checkpoint file (is the folder writable?)", tmp);
+        char cause[160];
+        h5_cause(0, cause, sizeof cause);
+        st = log_msg(log, STATUS_ERROR, CAT, "%s: cannot create the checkpoint file: %s; %s", tmp,
+                     cause[0] != '\0' ? cause : "is the folder writable?", kept(path, note, sizeof note));
+        remove(tmp); /* a full disk leaves it empty behind */
     }
     const int64_t dims[3] = {c->ranks.dims[0], c->ranks.dims[1], c->ranks.dims[2]};
     const char *what = NULL;
@@ -264,14 +296,15 @@ status_t checkpoint_write(const char *path, const scene_t *scene, const checkpoi
     }
     if (f >= 0 && H5Fclose(f) < 0 && st == STATUS_OK && what == NULL) {
         what = "the file (closing)";
+        put_failed();
     }
     if (what != NULL) {
-        st = log_msg(log, STATUS_ERROR, CAT, "%s: HDF5 error while writing %s; the previous checkpoint %s is kept",
-                     tmp, what, path);
+        st = log_msg(log, STATUS_ERROR, CAT, "%s: HDF5 error while writing %s%s%s; %s", tmp, what,
+                     put_cause[0] != '\0' ? ": " : "", put_cause, kept(path, note, sizeof note));
     }
     if (st == STATUS_OK && hooks->fill != NULL && hooks->fill(hooks->ctx, tmp) != STATUS_OK) {
-        st = log_msg(log, STATUS_ERROR, CAT, "%s could not be completed (see above); the previous checkpoint %s is kept",
-                     tmp, path);
+        st = log_msg(log, STATUS_ERROR, CAT, "%s could not be completed (see above); %s", tmp,
+                     kept(path, note, sizeof note));
     }
     if (st == STATUS_OK) {
         st = sync_path(tmp, 0, log);

@@ -4,6 +4,8 @@
 
 #include "version.h"
 
+#include "../common/h5_cause.h"
+
 #include <hdf5.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -65,9 +67,13 @@ static double now_seconds(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
+/* A failed HDF5 call, logged with its cause (a full disk names itself) */
 static status_t fail(const output_t *o, const char *what)
 {
-    return log_msg(&o->log, STATUS_ERROR, "output", "%s: HDF5 error while writing %s", o->path, what);
+    char cause[160];
+    h5_cause(0, cause, sizeof cause);
+    return log_msg(&o->log, STATUS_ERROR, "output", "%s: HDF5 error while writing %s%s%s", o->path, what,
+                   cause[0] != '\0' ? ": " : "", cause);
 }
 
 static status_t attr_string(output_t *o, hid_t obj, const char *name, const char *value)
@@ -540,4 +546,38 @@ status_t output_close(output_t *o)
     free(o->path);
     free(o);
     return st;
+}
+
+long output_rows_readable(const char *path, double *t_last)
+{
+    long rows = -1;
+    *t_last = 0.0;
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t d = f >= 0 ? H5Dopen2(f, SERIES[S_TIME].name, H5P_DEFAULT) : -1;
+    const hid_t space = d >= 0 ? H5Dget_space(d) : -1;
+    hsize_t n = 0;
+    if (space >= 0 && H5Sget_simple_extent_ndims(space) == 1 && H5Sget_simple_extent_dims(space, &n, NULL) == 1) {
+        rows = (long)n;
+        if (n > 0) {
+            hsize_t start = n - 1, one = 1;
+            const hid_t ms = H5Screate_simple(1, &one, NULL);
+            if (ms < 0 || H5Sselect_hyperslab(space, H5S_SELECT_SET, &start, NULL, &one, NULL) < 0 ||
+                H5Dread(d, H5T_NATIVE_DOUBLE, ms, space, H5P_DEFAULT, t_last) < 0) {
+                rows = -1; /* the rows' chunks are not there */
+            }
+            if (ms >= 0) {
+                H5Sclose(ms);
+            }
+        }
+    }
+    if (space >= 0) {
+        H5Sclose(space);
+    }
+    if (d >= 0) {
+        H5Dclose(d);
+    }
+    if (f >= 0) {
+        H5Fclose(f);
+    }
+    return rows;
 }

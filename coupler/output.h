@@ -71,5 +71,10 @@ status_t output_attr(output_t *o, const char *name, double value);
 status_t output_attr_string(output_t *o, const char *name, const char *value);
 /* Flushes and closes; o is freed even on error. */
 status_t output_close(output_t *o);
+/* What the closed output file at path holds after a run that stopped on an
+ * error: the rows of its time series (and the last time in *t_last), or -1
+ * when HDF5 cannot read it (a disk that filled before its first rows were
+ * written leaves a file whose metadata points past its end). */
+long output_rows_readable(const char *path, double *t_last);
 
 #endif

@@ -290,6 +290,23 @@ static void free_master(master_t *m)
     free(m->settle_t);
     free(m->settle_v);
 }
+
+/* A run stopped on an error: what its output file holds, read back (rank 0
+ * writes it; the others only say that the run stopped). */
+static void report_kept(const char *path, const log_t *log)
+{
+    double t = 0.0;
+    const long rows = mpi_env_rank() == 0 ? output_rows_readable(path, &t) : 0;
+    if (mpi_env_rank() > 0) {
+        log_msg(log, STATUS_ERROR, CAT, "stopped");
+    } else if (rows < 0) {
+        log_msg(log, STATUS_ERROR, CAT, "stopped; %s is not readable (its first rows could not be written)", path);
+    } else {
+        log_msg(log, STATUS_ERROR, CAT, "stopped; %s holds the %ld output rows written before (to t = %.9g s)", path,
+                rows, t);
+    }
+}
+
 int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
 {
     master_t m;
@@ -301,7 +318,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     checkpoint_t restart = {0};
     void *restored[2] = {NULL, NULL}; /* the checkpoint's FMU states, deserialized (init_fmus) */
     output_t *out = NULL;
-    int rc = 1;
+    int rc = 1, failed = 0;
     status_t st;
     const double wall0 = omp_get_wtime();
     /* SIGINT, SIGTERM: finish the step, write a checkpoint, stop (130, 143) */
@@ -707,7 +724,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     rc = 0;
     goto done;
 stopped:
-    log_msg(log, STATUS_ERROR, CAT, "stopped; %s holds the output rows written so far", opt->output);
+    failed = 1;
 done:
     if (restored[0] != NULL) { /* a restart stopped before its states were restored */
         fmu_free_state(m.fluid, &restored[0]);
@@ -725,6 +742,9 @@ done:
     checkpoint_free(&restart);
     if (output_close(out) != STATUS_OK) {
         rc = 1;
+    }
+    if (failed) {
+        report_kept(opt->output, log);
     }
     free_master(&m);
     sigaction(SIGINT, &old_int, NULL);

@@ -8,6 +8,7 @@ import re
 
 import h5py
 import numpy as np
+import pytest
 
 from conftest import run
 
@@ -89,8 +90,12 @@ def test_blow_up_stops_at_nan_or_negative_density(coupler, tmp_path):
     assert re.search(r"numerical trouble at step \d+ \(t = [0-9.e+-]+ s\), cell \(\d+, \d+, \d+\) at \([^)]*\) m: "
                      r"(non-finite density|non-positive density)", line), line
     assert "fluid.tau" in line  # the remedy
-    assert "holds the output rows written so far" in p.stderr
+    kept = re.search(r"stopped; \S+ holds the (\d+) output rows written before \(to t = ([0-9.e+-]+) s\)", p.stderr)
+    assert kept, p.stderr
     n = assert_rows_finite(out, 3)
+    with h5py.File(out, "r") as f:  # read back from the file after its close
+        assert int(kept.group(1)) == f["/time"].shape[0]
+        assert float(kept.group(2)) == pytest.approx(f["/time"][-1], rel=1e-9)
     # the failing step lies after the last row written
     step = int(re.search(r"at step (\d+)", line).group(1))
     with h5py.File(out, "r") as f:

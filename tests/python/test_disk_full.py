@@ -9,11 +9,13 @@ are skipped otherwise (or where mounting is not allowed)."""
 import os
 import re
 import subprocess
+import time
 
 import h5py
+import numpy as np
 import pytest
 
-from conftest import PY, run
+from conftest import COUPLER, PY, run
 
 SCENE = """\
 domain:
@@ -152,3 +154,92 @@ def test_fmu_snapshot_on_a_full_disk(coupler, small_disk, tmp_path):
     assert re.search(r"while writing /fields/000003\S*: No space left on device", p.stdout), p.stdout
     names, listed = complete_snapshots(small_disk / "f.h5", small_disk / "f.xmf")
     assert names == ["000000", "000001", "000002"] and listed == names
+
+
+# Rows only (no snapshots), one a step: the output's first flush allocates a
+# chunk of 4096 rows for every series, later flushes write into them, and the
+# chunks of rows 4096 on need new space.
+ROWS = """\
+domain:
+  size: [8.0e-5, 8.0e-5, 8.0e-5]
+fluid: {{density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-5, tau: 0.8}}
+run: {{end_time: {end}, output_interval: 1.0e-5}}
+"""
+
+
+def kept_rows(stderr, out):
+    """The rows the run says its output keeps, checked against the file read
+    back: every series as long as the time, the times those of the rows."""
+    m = re.search(r"stopped; \S+ holds the (\d+) output rows written before \(to t = ([0-9.e+-]+) s\)", stderr)
+    assert m, stderr
+    with h5py.File(out, "r") as f:
+        t = f["time"][()]
+        lengths = set()
+        f.visititems(lambda n, o: lengths.add(o.shape[0]) if isinstance(o, h5py.Dataset) and o.ndim > 0 else None)
+    assert lengths == {len(t)} and int(m.group(1)) == len(t), (lengths, len(t), m.group(0))
+    assert t == pytest.approx(1.0e-5 * np.arange(len(t)), abs=1e-12)
+    assert float(m.group(2)) == pytest.approx(t[-1], abs=1e-12)
+    return len(t)
+
+
+def test_output_rows_on_a_disk_that_fills_during_the_run(small_disk, tmp_path):
+    """Another program fills the disk while the run writes its rows: exit 1
+    with the cause named (the output writer said "HDF5 error" only), and the
+    output keeps the rows written before, readable, as the message says."""
+    scene = tmp_path / "rows.yaml"
+    scene.write_text(ROWS.format(end="0.3"))  # 30 000 rows: about 1.8 MB
+    out = small_disk / "o.h5"
+    env = dict(os.environ, OMP_NUM_THREADS="2")
+    proc = subprocess.Popen([str(COUPLER), "run", str(scene), "-o", str(out), "--quiet"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env)
+    t0 = time.monotonic()
+    while (not out.exists() or out.stat().st_size < 50000) and proc.poll() is None and time.monotonic() - t0 < 120:
+        time.sleep(0.02)  # the first rows are in the file
+    fill(small_disk, leave=20000)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 1, err
+    assert "No space left on device" in err, err
+    assert 256 <= kept_rows(err, out) < 30001
+
+
+def test_output_on_a_disk_full_before_its_first_rows(coupler, small_disk, tmp_path):
+    """The disk holds what `coupler check` counts for the rows' values but
+    not the first flush's chunks: the run ends with exit 1 (HDF5 1.10
+    segfaulted at exit, 139, on the output file whose close had failed) and
+    says that the file is not readable instead of promising rows."""
+    scene = tmp_path / "rows.yaml"
+    scene.write_text(ROWS.format(end="0.01"))
+    p = run("check", scene)
+    need = float(re.search(r"([0-9.e+-]+) MB on disk", p.stdout + p.stderr).group(1)) * 1e6
+    fill(small_disk, leave=int(need) + 4096)
+    out = small_disk / "o.h5"
+    p = run("run", scene, "-o", out, "--quiet")
+    assert p.returncode == 1, p.stderr
+    assert "No space left on device" in p.stderr, p.stderr
+    assert f"stopped; {out} is not readable (its first rows could not be written)" in p.stderr, p.stderr
+
+
+def test_checkpoint_on_a_disk_that_fills_during_the_run(small_disk, tmp_path):
+    """The disk fills after the first checkpoint: the next one fails with the
+    cause named (it said "is the folder writable?"), leaves no half-written
+    .tmp behind, and the message names the checkpoint a restart can take,
+    which is still whole."""
+    scene = tmp_path / "rows.yaml"
+    scene.write_text(ROWS.format(end="0.3"))
+    out = small_disk / "o.h5"
+    cp = small_disk / "o_checkpoint.h5"
+    env = dict(os.environ, OMP_NUM_THREADS="2")
+    proc = subprocess.Popen([str(COUPLER), "run", str(scene), "-o", str(out), "--quiet", "--checkpoint-every", "0.02"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    t0 = time.monotonic()
+    while not cp.exists() and proc.poll() is None and time.monotonic() - t0 < 120:
+        time.sleep(0.02)
+    fill(small_disk, leave=150000)  # room for the rows to the next checkpoint, not for it (0.34 MB)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 1, err
+    assert re.search(r"checkpoint\S*: .*No space left on device.*; the previous checkpoint \S+o_checkpoint\.h5 is kept",
+                     err), err
+    assert not (small_disk / "o_checkpoint.h5.tmp").exists()
+    with h5py.File(cp, "r") as f:
+        assert f.attrs["step"] >= 2000 and f["fluid_state/0"].shape[0] > 0
+    kept_rows(err, out)
