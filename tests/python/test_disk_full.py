@@ -63,6 +63,43 @@ def fill(folder, leave=0):
         os.close(fd)
 
 
+def run_short_of_space(scene_text, folder, tmp_path, spare):
+    """`coupler run` of a scene into folder, left with what `coupler check`
+    says the run needs plus `spare` bytes (it counts the datasets only: the
+    files' own metadata fill the rest): it fails with exit 1 and the cause.
+    Returns the CompletedProcess and the output's path."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text(scene_text)
+    p = run("check", scene)
+    need = float(re.search(r"([0-9.e+-]+) MB on disk", p.stdout + p.stderr).group(1)) * 1e6
+    fill(folder, leave=int(need) + spare)
+    out = folder / "o.h5"
+    p = run("run", scene, "-o", out, "--quiet")
+    assert p.returncode == 1, p.stderr
+    assert "No space left on device" in p.stderr, p.stderr
+    return p, out
+
+
+def run_while_filling(scene_text, folder, tmp_path, args, ready, leave):
+    """`coupler run` of a scene into folder (output o.h5, more args), the
+    file system filled to `leave` bytes once ready() holds: another program
+    takes the space while the run writes. Returns the run's stderr after it
+    ended with exit 1 and the cause."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text(scene_text)
+    env = dict(os.environ, OMP_NUM_THREADS="2")
+    proc = subprocess.Popen([str(COUPLER), "run", str(scene), "-o", str(folder / "o.h5"), "--quiet", *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    t0 = time.monotonic()
+    while not ready() and proc.poll() is None and time.monotonic() - t0 < 120:
+        time.sleep(0.02)
+    fill(folder, leave=leave)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 1, err
+    assert "No space left on device" in err, err
+    return err
+
+
 def complete_snapshots(fields, xmf):
     """The snapshots of a field file, each read whole (fails on a broken
     one), and the ones its .xmf index lists."""
@@ -83,15 +120,7 @@ def test_coupler_run_filling_the_disk_stops_cleanly(coupler, small_disk, tmp_pat
     disk is left with what `coupler check` says the run needs, which counts
     the datasets only: the files' own metadata and the .xmf index fill it
     before the end."""
-    scene = tmp_path / "s.yaml"
-    scene.write_text(SCENE.format(motion="\n    motion: fixed", end="1.0e-3"))
-    p = run("check", scene)
-    need = float(re.search(r"([0-9.e+-]+) MB on disk", p.stdout + p.stderr).group(1)) * 1e6
-    fill(small_disk, leave=int(need) + 16384)
-    out = small_disk / "o.h5"
-    p = run("run", scene, "-o", out, "--quiet")
-    assert p.returncode == 1, p.stderr
-    assert "No space left on device" in p.stderr, p.stderr
+    p, out = run_short_of_space(SCENE.format(motion="\n    motion: fixed", end="1.0e-3"), small_disk, tmp_path, 16384)
     assert "the field file was closed and keeps the snapshots before it" in p.stderr
     names, listed = complete_snapshots(small_disk / "o_fields.h5", small_disk / "o_fields.xmf")
     assert 2 <= len(names) < 101
@@ -186,19 +215,10 @@ def test_output_rows_on_a_disk_that_fills_during_the_run(small_disk, tmp_path):
     """Another program fills the disk while the run writes its rows: exit 1
     with the cause named (the output writer said "HDF5 error" only), and the
     output keeps the rows written before, readable, as the message says."""
-    scene = tmp_path / "rows.yaml"
-    scene.write_text(ROWS.format(end="0.3"))  # 30 000 rows: about 1.8 MB
     out = small_disk / "o.h5"
-    env = dict(os.environ, OMP_NUM_THREADS="2")
-    proc = subprocess.Popen([str(COUPLER), "run", str(scene), "-o", str(out), "--quiet"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=env)
-    t0 = time.monotonic()
-    while (not out.exists() or out.stat().st_size < 50000) and proc.poll() is None and time.monotonic() - t0 < 120:
-        time.sleep(0.02)  # the first rows are in the file
-    fill(small_disk, leave=20000)
-    _, err = proc.communicate(timeout=300)
-    assert proc.returncode == 1, err
-    assert "No space left on device" in err, err
+    # 30 000 rows, about 1.8 MB; filled once the first rows are in the file
+    err = run_while_filling(ROWS.format(end="0.3"), small_disk, tmp_path, [],
+                            lambda: out.exists() and out.stat().st_size >= 50000, 20000)
     assert 256 <= kept_rows(err, out) < 30001
 
 
@@ -207,15 +227,7 @@ def test_output_on_a_disk_full_before_its_first_rows(coupler, small_disk, tmp_pa
     not the first flush's chunks: the run ends with exit 1 (HDF5 1.10
     segfaulted at exit, 139, on the output file whose close had failed) and
     says that the file is not readable instead of promising rows."""
-    scene = tmp_path / "rows.yaml"
-    scene.write_text(ROWS.format(end="0.01"))
-    p = run("check", scene)
-    need = float(re.search(r"([0-9.e+-]+) MB on disk", p.stdout + p.stderr).group(1)) * 1e6
-    fill(small_disk, leave=int(need) + 4096)
-    out = small_disk / "o.h5"
-    p = run("run", scene, "-o", out, "--quiet")
-    assert p.returncode == 1, p.stderr
-    assert "No space left on device" in p.stderr, p.stderr
+    p, out = run_short_of_space(ROWS.format(end="0.01"), small_disk, tmp_path, 4096)
     assert f"stopped; {out} is not readable (its first rows could not be written)" in p.stderr, p.stderr
 
 
@@ -224,22 +236,13 @@ def test_checkpoint_on_a_disk_that_fills_during_the_run(small_disk, tmp_path):
     cause named (it said "is the folder writable?"), leaves no half-written
     .tmp behind, and the message names the checkpoint a restart can take,
     which is still whole."""
-    scene = tmp_path / "rows.yaml"
-    scene.write_text(ROWS.format(end="0.3"))
-    out = small_disk / "o.h5"
     cp = small_disk / "o_checkpoint.h5"
-    env = dict(os.environ, OMP_NUM_THREADS="2")
-    proc = subprocess.Popen([str(COUPLER), "run", str(scene), "-o", str(out), "--quiet", "--checkpoint-every", "0.02"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    t0 = time.monotonic()
-    while not cp.exists() and proc.poll() is None and time.monotonic() - t0 < 120:
-        time.sleep(0.02)
-    fill(small_disk, leave=150000)  # room for the rows to the next checkpoint, not for it (0.34 MB)
-    _, err = proc.communicate(timeout=300)
-    assert proc.returncode == 1, err
+    # room for the rows to the next checkpoint, not for it (0.34 MB)
+    err = run_while_filling(ROWS.format(end="0.3"), small_disk, tmp_path, ["--checkpoint-every", "0.02"], cp.exists,
+                            150000)
     assert re.search(r"checkpoint\S*: .*No space left on device.*; the previous checkpoint \S+o_checkpoint\.h5 is kept",
                      err), err
     assert not (small_disk / "o_checkpoint.h5.tmp").exists()
     with h5py.File(cp, "r") as f:
         assert f.attrs["step"] >= 2000 and f["fluid_state/0"].shape[0] > 0
-    kept_rows(err, out)
+    kept_rows(err, small_disk / "o.h5")
