@@ -10,6 +10,7 @@
 
 #include "cellflags.h"
 #include "lattice.h"
+#include "spheres.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -530,10 +531,30 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
     const ptrdiff_t l0 = part == WALLS_LATE ? (ptrdiff_t)w->nlinks_early : 0;
     const ptrdiff_t n = part == WALLS_EARLY ? (ptrdiff_t)w->nlinks_early : (ptrdiff_t)w->nlinks;
     const copy_link_t *restrict cp = w->copies;
+    const uint8_t *flags = w->flags;
 #pragma omp for schedule(static) nowait
     for (ptrdiff_t i = c0; i < nc; i++) {
-        /* the mirrored direction has the same weight */
-        pops_copy(p, pops_in_slot(p, cp[i].q, cp[i].cell), pops_post_slot(p, cp[i].sq, cp[i].src));
+        const size_t dst = pops_in_slot(p, cp[i].q, cp[i].cell);
+        if (flags != NULL && (cellflags_get(flags, cp[i].src) & FLAG_SOLID) != 0) {
+            /* The mirrored source lies inside a sphere that nearly touches
+             * the face (a gap below half a cell): what it holds is no fluid
+             * value (in place the update skips it, kernel_skip.c), and the
+             * sphere's links do not cover this population (its upwind cell
+             * is a ghost). The reflected path meets the sphere between the
+             * face and that cell: the sphere's mirror image across the
+             * face sends the population back, half-way bounce-back at rest,
+             * f_q(x) = f~_qbar(x), what a sphere link of `bounce_back`
+             * gives for a sphere at rest. Its momentum goes to the face,
+             * not to the sphere (README "Known problems"). Before, the copy
+             * took the solid cell's stale values: a fixed sphere 0.3 cells
+             * from a free-slip floor had a drag that changed by 5% with
+             * AGGLO_SKIP_SOLID, and NaN in the solid cells reached the
+             * whole flow (CUnit layouts). */
+            pops_copy(p, dst, pops_post_slot(p, lb_opposite(cp[i].q), cp[i].cell));
+        } else {
+            /* the mirrored direction has the same weight */
+            pops_copy(p, dst, pops_post_slot(p, cp[i].sq, cp[i].src));
+        }
     }
 #pragma omp for schedule(static)
     for (ptrdiff_t i = l0; i < n; i++) {

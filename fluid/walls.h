@@ -4,7 +4,9 @@
  * the slot to write (ghost cell, direction q) and how to get its value from
  * post-collision populations of interior cells:
  *   copy        free-slip faces (specular reflection: the mirrored direction
- *               from the cell beside the ghost);
+ *               from the cell beside the ghost; where a sphere covers that
+ *               cell, bounce-back of the fluid cell's own population: walls.c
+ *               fill_links);
  *   bounce      half-way bounce-back, with the moving-wall term
  *               6 w_q rho c_q.u_w (Ladd, J. Fluid Mech. 271 (1994) 285)
  *               for moving walls and velocity inlets; with TRT at a magic

@@ -325,6 +325,114 @@ static void test_in_place_leaves_solid_cells_alone(void)
     free(m[1]);
 }
 
+/* Box with both faces of one axis (z, or x) of type t, the others
+ * periodic, a body force along the faces, and one sphere of radius 3.2 at
+ * `gap` cells from the low z face (axis 2) or the high x face (axis 0):
+ * fixed, or prescribed to slide along the face and turn. */
+static scene_t wall_gap_scene(face_type_t t, int axis, double gap, int moving)
+{
+    scene_t s = test_box(NX, NY, NZ, 0.8, COLLISION_TRT);
+    face_t *f = s.domain.faces;
+    const int tan = axis == 2 ? 0 : 1, other = 3 - axis - tan; /* the axes along the faces */
+    f[2 * axis].type = f[2 * axis + 1].type = t;
+    if (t == FACE_MOVING_WALL) {
+        f[2 * axis].velocity[tan] = 0.02;
+        f[2 * axis].velocity[other] = 0.007;
+        f[2 * axis + 1].velocity[tan] = -0.01;
+    }
+    s.fluid.body_force[tan] = 3e-6;
+    s.fluid.body_force[other] = 1e-6;
+    const double r = 3.2;
+    double c[3] = {7.3, 6.8, 5.9};
+    c[axis] = axis == 2 ? r + gap : s.domain.size[axis] - r - gap;
+    scene_body_t *b = harness_one_sphere(&s, c, r, moving ? MOTION_PRESCRIBED : MOTION_FIXED);
+    if (moving) {
+        b->velocity[tan] = 0.03;
+        b->velocity[other] = -0.01;
+        b->angular_velocity[axis] = 0.01;
+        b->angular_velocity[tan] = 0.005;
+    }
+    s.fluid.refill = REFILL_EXTRAPOLATION;
+    return s;
+}
+
+/* The same premise next to the walls, where the walls' fill reads cells
+ * near the sphere (the free-slip copy from the cell beside the ghost, the
+ * moving wall's density, the slip correction two cells inwards): a sphere
+ * at a gap of 0, 0.3, 1 and 1.5 cells from a free-slip, moving or no-slip
+ * face on z and on x, fixed and sliding, with NaN in every value of every
+ * solid cell after each step, gives the flow and the load of the run
+ * without to the bit, and in place with the update of the solid cells
+ * skipped or not. Collision, scheme and layout take turns over the cases
+ * (TRT at 1/4 with multireflection in place, BGK with bounce-back on two
+ * arrays, TRT at 3/16 with cli in place, TRT at 1/4 with yu on two
+ * arrays). Before walls.c checked the free-slip copy's source, a sphere
+ * within half a cell of a free-slip face (its first layer of cells partly
+ * solid) passed the solid cells' values on: NaN everywhere, and without
+ * NaN a fixed sphere's force that depended on AGGLO_SKIP_SOLID. */
+static void test_solid_cells_next_to_walls(void)
+{
+    const face_type_t types[3] = {FACE_FREE_SLIP, FACE_MOVING_WALL, FACE_NO_SLIP};
+    const double gaps[4] = {0.0, 0.3, 1.0, 1.5};
+    const struct {
+        collision_t op;
+        double magic;
+        boundary_scheme_t scheme;
+        streaming_t streaming;
+    } mix[4] = {{COLLISION_TRT, 0.25, BOUNDARY_MULTIREFLECTION, STREAMING_IN_PLACE},
+                {COLLISION_BGK, 3.0 / 16.0, BOUNDARY_BOUNCE_BACK, STREAMING_TWO_ARRAY},
+                {COLLISION_TRT, 3.0 / 16.0, BOUNDARY_CLI, STREAMING_IN_PLACE},
+                {COLLISION_TRT, 0.25, BOUNDARY_YU, STREAMING_TWO_ARRAY}};
+    double *m[3];
+    for (int k = 0; k < 3; k++) {
+        m[k] = malloc(sizeof(double) * 4 * NCELLS);
+        CU_ASSERT_FATAL(m[k] != NULL);
+    }
+    int cases = 0, same = 0, nsolid_layer = 0;
+    for (int t = 0; t < 3; t++) {
+        for (int axis = 0; axis <= 2; axis += 2) {
+            for (int gi = 0; gi < 4; gi++) {
+                for (int moving = 0; moving < 2; moving++) {
+                    const int k = cases % 4;
+                    const int runs = mix[k].streaming == STREAMING_IN_PLACE ? 3 : 2;
+                    double load[3][6];
+                    for (int run = 0; run < runs; run++) { /* 0 as is, 1 NaN in the solid cells, 2 no skip */
+                        scene_t s = wall_gap_scene(types[t], axis, gaps[gi], moving);
+                        s.fluid.collision = mix[k].op;
+                        s.fluid.magic = mix[k].magic;
+                        s.fluid.boundary_scheme = mix[k].scheme;
+                        s.fluid.streaming = mix[k].streaming;
+                        fluid_t *fl = test_fluid(&s);
+                        fl->skip_on = run != 2;
+                        for (int n = 0; n < 30; n++) {
+                            CU_ASSERT_EQUAL(fluid_step(fl), STATUS_OK);
+                            if (run == 1) {
+                                set_solid(fl, NAN, 1);
+                            }
+                        }
+                        fluid_moments_lattice(fl, m[run], m[run] + NCELLS);
+                        fluid_sphere_load_lattice(fl, 0, load[run], load[run] + 3);
+                        fluid_free(fl);
+                    }
+                    int ok = isfinite(load[0][0]) && load[0][0] != 0.0;
+                    for (int run = 1; run < runs; run++) {
+                        ok = ok && memcmp(m[0], m[run], sizeof(double) * 4 * NCELLS) == 0 &&
+                             memcmp(load[0], load[run], sizeof load[0]) == 0;
+                    }
+                    same += ok;
+                    nsolid_layer += gaps[gi] < 0.5;
+                    cases++;
+                }
+            }
+        }
+    }
+    printf("; %d of %d cases bit-identical (%d with solid cells next to the face)", same, cases, nsolid_layer);
+    CU_ASSERT_EQUAL(same, cases);
+    for (int k = 0; k < 3; k++) {
+        free(m[k]);
+    }
+}
+
 void layouts_register_tests(void)
 {
     CU_pSuite s = CU_add_suite("layouts", NULL, NULL);
@@ -337,4 +445,6 @@ void layouts_register_tests(void)
                 test_in_place_multireflection_at_omega_minus_one);
     CU_add_test(s, "in place: the cells inside the spheres left alone, and nothing of them reaches the fluid",
                 test_in_place_leaves_solid_cells_alone);
+    CU_add_test(s, "NaN in the solid cells of a sphere at or near each wall type reaches nothing (gap 0-1.5 cells)",
+                test_solid_cells_next_to_walls);
 }
