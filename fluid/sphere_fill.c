@@ -68,7 +68,7 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
     for (size_t n = n_begin; n < n_end; n++) {
         sphere_link_t *l = &list->l[n];
         const int q = l->q, o = lb_opposite(q);
-        if (l->xf != cell) { /* the links of a cell are consecutive (sphere_links) */
+        if (n == n_begin || !spheres_same_cell(l, l - 1)) { /* the links of a cell are consecutive (sphere_links) */
             if (n > n_begin) {
                 for (int a = 0; a < 8; a++) {
                     cb[a][ncb] = cl[a];
@@ -86,7 +86,7 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
             /* side by side: independent square roots and divisions (one
              * link at a time, each waited on the one before) */
             int qs[LB_Q], nq = 0;
-            for (size_t e = n; e < n_end && list->l[e].xf == cell && nq < LB_Q; e++) {
+            for (size_t e = n; e < n_end && spheres_same_cell(&list->l[e], l) && nq < LB_Q; e++) {
                 qs[nq++] = list->l[e].q;
             }
             spheres_rays(dk, qs, nq, p->r, ray);

@@ -207,9 +207,12 @@ typedef struct {
     int nc, film;       /* how many; 1 when a wall point of k can have a film partner */
 } others_t;
 
+/* At most 26 images of sphere k itself besides k (others_find). */
+enum { SELF_IMAGES_MAX = 26 };
+
 static int others_alloc(others_t *o, int n)
 {
-    const size_t m = n > 0 ? (size_t)n : 1;
+    const size_t m = (n > 0 ? (size_t)n : 1) + SELF_IMAGES_MAX;
     o->cand = malloc(m * sizeof *o->cand);
     o->rel = malloc(m * sizeof *o->rel);
     o->near = malloc(m * sizeof *o->near);
@@ -242,7 +245,17 @@ static inline int link_film(const spheres_t *sp, int k, int q, const double dk[3
 static inline int box_first(const sphere_t *p, int a) { return (int)floor(p->c[a] - p->r) - 1; }
 
 /* The other spheres near sphere k (candidates without k itself), their
- * centres relative to c_k, and whether its wall points can have a film. */
+ * centres relative to c_k, and whether its wall points can have a film.
+ * On a periodic axis shorter than the reach of k's links on both sides
+ * (N < 2 (r + sqrt 2)) a cell can be within reach of two images of k:
+ * its box then holds the cell twice (X and X -+ N), and each visit tests
+ * its links against one image. Those other images of k follow the others
+ * (candidate k, centre c_k + s N: rel = -s N), so that a link goes to the
+ * image its ray hits first, from that image's visit alone. Without them a
+ * sphere of radius 1.6 in a 4-cell periodic slab had links counted twice
+ * (a ray that misses its own image took delta 1 beside the image's real
+ * link): its drag came out 22% above that of the same flow on 8 cells
+ * with the image as a second sphere. */
 static void others_find(const spheres_t *sp, int k, others_t *o)
 {
     const int nc = candidates(sp, k, o->cand);
@@ -254,6 +267,40 @@ static void others_find(const spheres_t *sp, int k, others_t *o)
         }
     }
     o->film = film_possible(sp, k, o->cand, o->rel, o->nc);
+    int span[3];
+    for (int a = 0; a < 3; a++) {
+        span[a] = sp->periodic[a] && sp->N[a] < 2.0 * (sp->s[k].r + 1.4143);
+    }
+    for (int sz = -span[2]; sz <= span[2]; sz++) {
+        for (int sy = -span[1]; sy <= span[1]; sy++) {
+            for (int sx = -span[0]; sx <= span[0]; sx++) {
+                if (sx != 0 || sy != 0 || sz != 0) {
+                    o->rel[o->nc][0] = -(double)sx * sp->N[0];
+                    o->rel[o->nc][1] = -(double)sy * sp->N[1];
+                    o->rel[o->nc][2] = -(double)sz * sp->N[2];
+                    o->cand[o->nc++] = k;
+                }
+            }
+        }
+    }
+}
+
+/* Of two rays that hit at the same distance, the one of candidate c wins
+ * over sphere k's own: a lower sphere index, or for an image of k itself
+ * the visit of the same cell with the lower key (link_key: z, then y, then
+ * x), which is this one shifted by -rel: so c wins when rel's first
+ * non-zero component in that order is positive. Both visits thus agree. */
+static int wins_tie(const others_t *o, int c, int k)
+{
+    if (o->cand[c] != k) {
+        return o->cand[c] < k;
+    }
+    for (int a = 2; a >= 0; a--) {
+        if (o->rel[c][a] != 0.0) {
+            return o->rel[c][a] > 0.0;
+        }
+    }
+    return 0;
 }
 
 /* How far (cells) the other spheres may move before a refresh checks all
@@ -289,19 +336,27 @@ static int near_candidates(const spheres_t *sp, const double dk[3], others_t *o,
  * index), or -1 when no ray hits and x_b (global coordinates xb) is nearest
  * to another sphere's surface. */
 static double link_delta(const spheres_t *sp, int k, int q, double dq, const others_t *o, int nn,
-                         const double xb[3])
+                         const double xb[3], const double dk[3])
 {
     double delta = dq;
     for (int j = 0; j < nn; j++) {
         const int c = o->near[j];
         double t;
         spheres_rays(o->dnear[j], &q, 1, sp->s[o->cand[c]].r, &t);
-        if (t > 0.0 && (delta == 0.0 || t < delta || (t == delta && o->cand[c] < k))) {
-            return 0.0; /* another sphere's link */
+        if (t > 0.0 && (delta == 0.0 || t < delta || (t == delta && wins_tie(o, c, k)))) {
+            return 0.0; /* another sphere's link, or another image's of k */
         }
     }
     if (delta == 0.0) {
-        /* no ray hits: x_b sits on a surface the ray only touches at t = 1 */
+        /* no ray hits: x_b sits on a surface the ray only touches at t = 1;
+         * the link of the visit whose image of k is nearest to x_b (dk +
+         * c_q its minimum image), so that a cell seen twice has it once */
+        for (int a = 0; a < 3; a++) {
+            const double b = dk[a] + lb_c[q][a];
+            if (sp->periodic[a] && !(b > -0.5 * sp->N[a] && b <= 0.5 * sp->N[a])) {
+                return -1.0;
+            }
+        }
         double d[3];
         return spheres_nearest(sp, xb, d) == k ? 1.0 : -1.0;
     }
@@ -397,7 +452,7 @@ static int refresh_cell(spheres_t *sp, const uint8_t *flags, int k, others_t *o,
     size_t e = n;
     int qs[LB_Q], nq = 0;
     double dl[LB_Q];
-    for (; e < list->n && list->l[e].xf == list->l[n].xf; e++) {
+    for (; e < list->n && spheres_same_cell(&list->l[e], &list->l[n]); e++) {
         qs[nq++] = list->l[e].q;
     }
     spheres_rays(dk, qs, nq, p->r, dl);
@@ -411,7 +466,7 @@ static int refresh_cell(spheres_t *sp, const uint8_t *flags, int k, others_t *o,
                 xb[a] = Y[a] + sp->lo[a] + lb_c[l->q][a];
             }
         }
-        const double delta = link_delta(sp, k, l->q, dl[jq], o, nn, xb);
+        const double delta = link_delta(sp, k, l->q, dl[jq], o, nn, xb, dk);
         if (delta <= 0.0) {
             return 0;
         }
@@ -574,7 +629,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                      * (ties to the lower index); a link of k must hit k first */
                     const double xb[3] = {Y[0] + sp->lo[0] + lb_c[q][0], Y[1] + sp->lo[1] + lb_c[q][1],
                                           Y[2] + sp->lo[2] + lb_c[q][2]};
-                    const double delta = link_delta(sp, k, q, dl[jq], o, nn, xb);
+                    const double delta = link_delta(sp, k, q, dl[jq], o, nn, xb, dk);
                     if (delta <= 0.0) {
                         continue; /* another sphere's link */
                     }

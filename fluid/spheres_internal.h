@@ -85,6 +85,16 @@ static inline void spheres_key_cell(uint64_t key, int X[3])
     X[2] = (int)(key >> 37) - 32768;
 }
 
+/* 1 when two links start at the same cell of the sphere's box (their keys
+ * but for q): the links of a cell are consecutive in a list, and share its
+ * ray origin (spheres_link_cell). Not the same as the same x_f: on a
+ * periodic axis shorter than the box a cell is in it twice, as two images
+ * (sphere_links.c others_find), each with links of its own geometry. */
+static inline int spheres_same_cell(const sphere_link_t *a, const sphere_link_t *b)
+{
+    return a->key >> 5 == b->key >> 5;
+}
+
 /* delta of the rays x + t c_q, t in (0, 1], for q = qs[0..n), against a
  * sphere of radius r whose centre is at x - d (spheres_ray), side by side:
  * the links' build and refresh, and the fill. */
@@ -112,7 +122,7 @@ static inline void spheres_link_cell(const sphere_t *p, uint64_t key, double dk[
     int X[3];
     spheres_key_cell(key, X);
     for (int a = 0; a < 3; a++) {
-        dk[a] = X[a] - p->c[a]; /* the box is about c_p: X - c_p is the minimum image */
+        dk[a] = X[a] - p->c[a]; /* the box is about c_p: X - c_p, the image of c_p the link's ray hits */
     }
 }
 
