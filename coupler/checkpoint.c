@@ -25,6 +25,7 @@
 #include <fcntl.h>
 #include <hdf5.h>
 #include <inttypes.h>
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -460,6 +461,16 @@ status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoin
         st = log_msg(log, STATUS_ERROR, CAT, "%s: the master's counters are missing or out of range", path);
         goto done;
     }
+    /* whether the row of this very step was written: a checkpoint is taken
+     * after the step's row, when one was due */
+    void *times = NULL;
+    size_t ntimes = 0;
+    if (c->rows > 0 && get_array(f, "/output/time", H5T_NATIVE_DOUBLE, sizeof(double), &times, &ntimes) &&
+        ntimes >= (size_t)c->rows) {
+        const double t_last = ((const double *)times)[c->rows - 1];
+        c->row_at_step = fabs(t_last - (double)c->step * c->h) < 0.5 * c->h;
+    }
+    free(times);
     char block[64];
     snprintf(block, sizeof block, "/fluid_state/%d", rank);
     if (!get_array(f, block, H5T_NATIVE_UCHAR, 1, &fs, &c->fluid_size)) {

@@ -51,6 +51,8 @@ typedef struct {
     long nsteps;          /* the run's length in communication steps */
     long rows;            /* output rows written */
     long next_out;        /* the next output row is due at next_out * run.output_interval */
+    int row_at_step;      /* 1: the last of those rows is that of communication step `step` (read from the
+                             copy of /output/time: a restart at its run's last step writes no second one) */
     int exchange_every;   /* LBM steps per communication step */
     double h;             /* communication step, s */
     checkpoint_ranks_t ranks;

@@ -550,7 +550,11 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     for (long n = n0;; n++) {
         const double t = n * h;
         const int last = n == nsteps;
-        const int do_out = !cp.replay && (last || t >= next_out * oi - 1e-9 * dt);
+        /* the last step's row, unless a restart begins at it and its
+         * checkpoint has that row already (a run cut short at a checkpoint
+         * restarted with that --steps wrote the row twice) */
+        const int end_row = last && !(n == n0 && restart.row_at_step);
+        const int do_out = !cp.replay && (end_row || t >= next_out * oi - 1e-9 * dt);
         const double w_out0 = omp_get_wtime();
         if (do_out || (cp.n1 >= 0 && n >= cp.n1)) {
             if (master_read_row(&m) >= STATUS_ERROR) {

@@ -230,3 +230,27 @@ def test_sigkill_without_checkpoint_keeps_the_rows_written(coupler, reference, t
     assert common.sum() >= 1
     idx = np.searchsorted(ref["time"], t[common])
     assert np.array_equal(ref["spheres/velocity"][idx], v[common])
+
+
+@pytest.mark.parametrize("output_interval", ["1e-9", "5e-5"])
+def test_restart_at_the_last_step_writes_its_row_once(coupler, tmp_path, output_interval):
+    """A run of 40 steps with a checkpoint at step 20, restarted with --steps
+    20: it begins at its last step. Its output must be the uninterrupted
+    20-step run's. With a row every step the checkpoint holds the row of
+    step 20 already, and the restart wrote it again (22 rows instead of 21,
+    the time 0.00033 s twice; the settling summary counted it twice too);
+    with a row every 3 steps (5e-5 s) step 20 has none and the end adds it."""
+    sets = ["--set", f"run.output_interval={output_interval}", "--set", "run.fields=false"]
+    ref = tmp_path / "ref.h5"
+    p = run("run", SCENE, "-o", ref, "--steps", "20", "--quiet", *sets)
+    assert p.returncode == 0, p.stderr
+    out = tmp_path / "run.h5"
+    p = run("run", SCENE, "-o", out, "--steps", "40", "--quiet", "--checkpoint-every", "0.00033333333", *sets)
+    assert p.returncode == 0, p.stderr
+    with h5py.File(tmp_path / "run_checkpoint.h5", "r") as f:
+        assert f.attrs["step"] == 20
+    p = run("run", SCENE, "-o", out, "--steps", "20", "--quiet", "--restart", tmp_path / "run_checkpoint.h5", *sets)
+    assert p.returncode == 0, p.stderr
+    assert_identical(ref, out)
+    t = datasets(out)["time"]
+    assert np.all(np.diff(t) > 0), t
