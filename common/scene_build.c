@@ -301,6 +301,27 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
     return dx_ok;
 }
 
+/* The global index of body b's first sphere (bodies in order). */
+static int first_sphere(const scene_t *s, int b)
+{
+    int k = 0;
+    for (int i = 0; i < b; i++) {
+        k += s->bodies[i].nspheres;
+    }
+    return k;
+}
+
+/* The body of global sphere k (0 <= k < scene_total_spheres). */
+static int body_of_sphere(const scene_t *s, int k)
+{
+    int b = 0;
+    while (b < s->nbodies - 1 && k >= s->bodies[b].nspheres) {
+        k -= s->bodies[b].nspheres;
+        b++;
+    }
+    return b;
+}
+
 static bool build_connections(ctx_t *c, const raw_scene_t *r, scene_t *s)
 {
     if (r->connections_count > (unsigned)INT_MAX) {
@@ -347,6 +368,22 @@ static bool build_connections(ctx_t *c, const raw_scene_t *r, scene_t *s)
                              "= %s: a sphere cannot be connected to itself; allowed: two different sphere indices",
                              fmt_vec(rc->spheres, 2).s);
             ok = false;
+        }
+        /* a connection is a sintered neck inside one agglomerate: the rigid
+         * component refuses one between bodies (each body is one rigid
+         * piece until its connections break); said here, with the key, so
+         * that `coupler check` refuses what `coupler run` would, not the
+         * rigid FMU at initialisation without file or line */
+        if (ok) {
+            const int ba = body_of_sphere(s, (int)rc->spheres[0]), bb = body_of_sphere(s, (int)rc->spheres[1]);
+            if (ba != bb) {
+                scene_report_bad(c, key,
+                                 "= %s: sphere %d (body %d) and sphere %d (body %d) belong to different bodies; "
+                                 "allowed: two spheres of one body (bodies.%d has spheres %d to %d)",
+                                 fmt_vec(rc->spheres, 2).s, (int)rc->spheres[0], ba, (int)rc->spheres[1], bb, ba,
+                                 first_sphere(s, ba), first_sphere(s, ba) + s->bodies[ba].nspheres - 1);
+                ok = false;
+            }
         }
         cn->a = ok ? (int)rc->spheres[0] : -1;
         cn->b = ok ? (int)rc->spheres[1] : -1;

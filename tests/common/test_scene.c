@@ -806,6 +806,11 @@ static void test_connections(void)
     EXPECT_SET_ERROR("connections.0.spheres=[0.5, 1]", "sphere index 0.5 does not exist");
     EXPECT_SET_ERROR("connections.0.spheres=[1, 1]",
                      "connections.0.spheres = [1, 1]: a sphere cannot be connected to itself; allowed: two different");
+    /* a neck joins spheres of one body; the rigid FMU refused this at
+     * initialisation, after `coupler check` had passed it */
+    EXPECT_SET_ERROR("connections.0.spheres=[1, 2]",
+                     "connections.0.spheres = [1, 2]: sphere 1 (body 0) and sphere 2 (body 1) belong to different "
+                     "bodies; allowed: two spheres of one body (bodies.0 has spheres 0 to 1)");
     EXPECT_SET_ERROR("connections=[{spheres: [0, 1]}, {spheres: [1, 0]}]",
                      "connections.1.spheres = [1, 0]: the pair is already connected by connections.0");
     EXPECT_LINE_ERROR(23, "  - {spheres: [0, 9], max_normal: 1.0e-6}", "scene.yaml:23: connections.0.spheres = [0, 9]",
