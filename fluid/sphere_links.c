@@ -6,7 +6,7 @@
  * (README "Lubrication"). Each sphere builds its own list from its bounding
  * box, in parallel over spheres and in a fixed order: the lists, and the
  * loads summed from them, do not depend on the threads. */
-#include "spheres_internal.h"
+#include "sphere_others.h"
 
 #include "boundary.h"
 #include "lattice.h"
@@ -36,99 +36,6 @@ static inline __attribute__((always_inline)) int fluid_at(spheres_t *sp, const g
         }
     }
     return (flag & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
-}
-
-/* Spheres whose rays from cells near sphere k can hit first: a link of k
- * starts within r_k + sqrt(2) of c_k and one of m within r_m + sqrt(2) of
- * c_m (|c_q| <= sqrt 2), so |c_k - c_m| < r_k + r_m + 3 takes in all; and
- * the film partners of k's wall points, within r_k + r_m + the cut-off. */
-static int candidates(const spheres_t *sp, int k, int *out)
-{
-    int n = 0;
-    for (int m = 0; m < sp->n; m++) {
-        double d[3];
-        spheres_min_image(sp, sp->s[k].c, sp->s[m].c, d);
-        const double reach = sp->s[k].r + sp->s[m].r + fmax(3.0, sp->film_cutoff + 1.5);
-        if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach) {
-            out[n++] = m;
-        }
-    }
-    return n;
-}
-
-/* The film zone (README "Lubrication"). Below the cut-off h_c the rigid
- * component adds the film force of the whole region where the surfaces are
- * closer than h_c: in lubrication theory (Reynolds) the pressure under
- * sphere k at distance rho from the line of centres is 3 mu reff V / h(rho)^2
- * with h = h_0 + rho^2 / (2 reff), and its integral over h < h_c is exactly
- * 6 pi mu reff^2 V (1/h_0 - 1/h_c), the correction of rigid/lubrication.c.
- * The lattice's own normal force on that region is what a row of nodes in
- * the gap, or none, makes of a film it cannot resolve: it is left out (the
- * normal part of the links whose wall point lies within h_c of the partner's
- * surface), so that the force does not depend on where the gap sits in the
- * cell and nothing is counted twice. The partner of a wall point: the
- * nearest surface within h_c of another body's sphere or of a face with a
- * film; -1 none, m a sphere, -2 - f face f. */
-static int film_partner(const spheres_t *sp, int k, const double rw[3], const int *cand, double (*rel)[3],
-                        int nc)
-{
-    const sphere_t *p = &sp->s[k];
-    double best = sp->film_cutoff;
-    int partner = -1;
-    if (!(best > 0.0)) {
-        return -1;
-    }
-    for (int c = 0; c < nc; c++) {
-        const sphere_t *m = &sp->s[cand[c]];
-        if (m->body == p->body) {
-            continue; /* one rigid body: no film between its spheres */
-        }
-        const double d[3] = {rw[0] + rel[c][0], rw[1] + rel[c][1], rw[2] + rel[c][2]};
-        const double gap = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - m->r;
-        if (gap < best) {
-            best = gap;
-            partner = cand[c];
-        }
-    }
-    for (int a = 0; a < 3; a++) {
-        const double x = p->c[a] + rw[a];
-        /* the faces lie half a cell beyond the first and last cells, X = 0.5 and N + 0.5 */
-        const double gap[2] = {x - 0.5, sp->N[a] + 0.5 - x};
-        for (int side = 0; side < 2; side++) {
-            if (sp->film_face[2 * a + side] && gap[side] < best) {
-                best = gap[side];
-                partner = -2 - (2 * a + side);
-            }
-        }
-    }
-    return partner;
-}
-
-/* 0 when no wall point of sphere k (at r_k from c_k) can have a film
- * partner: every other body's sphere and every face with a film farther
- * than the cut-off (and 1e-6 cells, for the rounding of the wall points);
- * film_partner would give -1 for each of its links. */
-static int film_possible(const spheres_t *sp, int k, const int *cand, double (*rel)[3], int nc)
-{
-    const sphere_t *p = &sp->s[k];
-    const double reach = sp->film_cutoff + 1e-6;
-    if (!(sp->film_cutoff > 0.0)) {
-        return 0;
-    }
-    for (int c = 0; c < nc; c++) {
-        const sphere_t *m = &sp->s[cand[c]];
-        const double d = sqrt(rel[c][0] * rel[c][0] + rel[c][1] * rel[c][1] + rel[c][2] * rel[c][2]);
-        if (m->body != p->body && d - p->r - m->r < reach) {
-            return 1;
-        }
-    }
-    for (int a = 0; a < 3; a++) {
-        if ((sp->film_face[2 * a] && p->c[a] - p->r - 0.5 < reach) ||
-            (sp->film_face[2 * a + 1] && sp->N[a] + 0.5 - (p->c[a] + p->r) < reach)) {
-            return 1;
-        }
-    }
-    return 0;
 }
 
 /* The links of sphere k: every fluid cell x_f in its box (plus a cell) and
@@ -197,171 +104,9 @@ static void carry_in(link_list_t *list)
     list->ncarry = 0;
 }
 
-/* The other spheres near sphere k, which its links' rays and wall points
- * are tested against; per thread, room for every sphere (others_alloc). */
-typedef struct {
-    int *cand;          /* the other spheres within reach of k (candidates), increasing */
-    double (*rel)[3];   /* their centres relative to c_k (minimum image) */
-    int *near;          /* of one cell: those a ray of length sqrt 2 can reach (indices into cand) */
-    double (*dnear)[3]; /* and their centres relative to that cell */
-    int nc, film;       /* how many; 1 when a wall point of k can have a film partner */
-} others_t;
-
-/* At most 26 images of sphere k itself besides k (others_find). */
-enum { SELF_IMAGES_MAX = 26 };
-
-static int others_alloc(others_t *o, int n)
-{
-    const size_t m = (n > 0 ? (size_t)n : 1) + SELF_IMAGES_MAX;
-    o->cand = malloc(m * sizeof *o->cand);
-    o->rel = malloc(m * sizeof *o->rel);
-    o->near = malloc(m * sizeof *o->near);
-    o->dnear = malloc(m * sizeof *o->dnear);
-    return o->cand != NULL && o->rel != NULL && o->near != NULL && o->dnear != NULL;
-}
-
-static void others_free(others_t *o)
-{
-    free(o->cand);
-    free(o->rel);
-    free(o->near);
-    free(o->dnear);
-}
-
-/* The film partner of a link's wall point (dk: x_f - c_k; delta, its own
- * ray's: link_delta), the wall point as the fill derives it. */
-static inline int link_film(const spheres_t *sp, int k, int q, const double dk[3], double delta, const others_t *o)
-{
-    if (!o->film) {
-        return -1;
-    }
-    double rw[3];
-    spheres_wall_point(dk, delta, q, rw);
-    return film_partner(sp, k, rw, o->cand, o->rel, o->nc);
-}
-
 /* The first cell along axis a of the box a sphere's links are built in
  * (unwrapped global coordinates): it fixes the keys (link_key). */
 static inline int box_first(const sphere_t *p, int a) { return (int)floor(p->c[a] - p->r) - 1; }
-
-/* The other spheres near sphere k (candidates without k itself), their
- * centres relative to c_k, and whether its wall points can have a film.
- * On a periodic axis shorter than the reach of k's links on both sides
- * (N < 2 (r + sqrt 2)) a cell can be within reach of two images of k:
- * its box then holds the cell twice (X and X -+ N), and each visit tests
- * its links against one image. Those other images of k follow the others
- * (candidate k, centre c_k + s N: rel = -s N), so that a link goes to the
- * image its ray hits first, from that image's visit alone. Without them a
- * sphere of radius 1.6 in a 4-cell periodic slab had links counted twice
- * (a ray that misses its own image took delta 1 beside the image's real
- * link): its drag came out 22% above that of the same flow on 8 cells
- * with the image as a second sphere. */
-static void others_find(const spheres_t *sp, int k, others_t *o)
-{
-    const int nc = candidates(sp, k, o->cand);
-    o->nc = 0;
-    for (int c = 0; c < nc; c++) {
-        if (o->cand[c] != k) {
-            spheres_min_image(sp, sp->s[k].c, sp->s[o->cand[c]].c, o->rel[o->nc]);
-            o->cand[o->nc++] = o->cand[c];
-        }
-    }
-    o->film = film_possible(sp, k, o->cand, o->rel, o->nc);
-    int span[3];
-    for (int a = 0; a < 3; a++) {
-        span[a] = sp->periodic[a] && sp->N[a] < 2.0 * (sp->s[k].r + 1.4143);
-    }
-    for (int sz = -span[2]; sz <= span[2]; sz++) {
-        for (int sy = -span[1]; sy <= span[1]; sy++) {
-            for (int sx = -span[0]; sx <= span[0]; sx++) {
-                if (sx != 0 || sy != 0 || sz != 0) {
-                    o->rel[o->nc][0] = -(double)sx * sp->N[0];
-                    o->rel[o->nc][1] = -(double)sy * sp->N[1];
-                    o->rel[o->nc][2] = -(double)sz * sp->N[2];
-                    o->cand[o->nc++] = k;
-                }
-            }
-        }
-    }
-}
-
-/* Of two rays that hit at the same distance, the one of candidate c wins
- * over sphere k's own: a lower sphere index, or for an image of k itself
- * the visit of the same cell with the lower key (link_key: z, then y, then
- * x), which is this one shifted by -rel: so c wins when rel's first
- * non-zero component in that order is positive. Both visits thus agree. */
-static int wins_tie(const others_t *o, int c, int k)
-{
-    if (o->cand[c] != k) {
-        return o->cand[c] < k;
-    }
-    for (int a = 2; a >= 0; a--) {
-        if (o->rel[c][a] != 0.0) {
-            return o->rel[c][a] > 0.0;
-        }
-    }
-    return 0;
-}
-
-/* How far (cells) the other spheres may move before a refresh checks all
- * the links of a sphere again (sphere_refresh): the cells within this of
- * a ray's reach of another sphere are checked at every refresh. */
-#define SPHERES_NEAR_MARGIN 0.5
-
-/* The others a ray of length sqrt 2 from a cell at dk from c_k can reach
- * (the same for every q), in increasing index: their count. *within (unless
- * NULL): 1 when one is within SPHERES_NEAR_MARGIN of that reach too. */
-static int near_candidates(const spheres_t *sp, const double dk[3], others_t *o, int *within)
-{
-    int nn = 0, w = 0;
-    for (int c = 0; c < o->nc; c++) {
-        const double dm[3] = {dk[0] + o->rel[c][0], dk[1] + o->rel[c][1], dk[2] + o->rel[c][2]};
-        const double rm = sp->s[o->cand[c]].r + 1.4143, rw = rm + SPHERES_NEAR_MARGIN;
-        const double d2 = dm[0] * dm[0] + dm[1] * dm[1] + dm[2] * dm[2];
-        if (d2 <= rm * rm) {
-            memcpy(o->dnear[nn], dm, sizeof dm);
-            o->near[nn++] = c;
-        }
-        w = w || d2 <= rw * rw;
-    }
-    if (within != NULL) {
-        *within = w;
-    }
-    return nn;
-}
-
-/* Eq. 5 for a link of sphere k along c_q whose own ray gave dq, from a
- * cell with nn near others (near_candidates): its delta, 0 when another
- * near sphere's ray hits first (ties to the lower
- * index), or -1 when no ray hits and x_b (global coordinates xb) is nearest
- * to another sphere's surface. */
-static double link_delta(const spheres_t *sp, int k, int q, double dq, const others_t *o, int nn,
-                         const double xb[3], const double dk[3])
-{
-    double delta = dq;
-    for (int j = 0; j < nn; j++) {
-        const int c = o->near[j];
-        double t;
-        spheres_rays(o->dnear[j], &q, 1, sp->s[o->cand[c]].r, &t);
-        if (t > 0.0 && (delta == 0.0 || t < delta || (t == delta && wins_tie(o, c, k)))) {
-            return 0.0; /* another sphere's link, or another image's of k */
-        }
-    }
-    if (delta == 0.0) {
-        /* no ray hits: x_b sits on a surface the ray only touches at t = 1;
-         * the link of the visit whose image of k is nearest to x_b (dk +
-         * c_q its minimum image), so that a cell seen twice has it once */
-        for (int a = 0; a < 3; a++) {
-            const double b = dk[a] + lb_c[q][a];
-            if (sp->periodic[a] && !(b > -0.5 * sp->N[a] && b <= 0.5 * sp->N[a])) {
-                return -1.0;
-            }
-        }
-        double d[3];
-        return spheres_nearest(sp, xb, d) == k ? 1.0 : -1.0;
-    }
-    return delta;
-}
 
 /* A cell whose links start at index first goes in the list's near cells
  * when another sphere is (nearly) within reach (near_candidates' within):
@@ -375,59 +120,6 @@ static int note_near(link_list_t *list, size_t first, int within)
         return 0;
     }
     list->near[list->nnear++] = first;
-    return 1;
-}
-
-/* After every link of a list was checked (built or refreshed in full): the
- * others near it and their centres now, for the refreshes that check only
- * the near cells (sphere_refresh); room for those alone (a list with room
- * for every sphere would take memory growing with their number squared). */
-static void note_checked(const spheres_t *sp, link_list_t *list, const others_t *o, int checked, int fresh_set)
-{
-    const size_t need = ((size_t)o->nc + 8) / 8 * 8;
-    if (need > list->capcand) {
-        int *c = realloc(list->cand, need * sizeof *list->cand);
-        list->cand = c != NULL ? c : list->cand;
-        double(*cc)[3] = c != NULL ? realloc(list->cand_c, need * sizeof *list->cand_c) : NULL;
-        list->cand_c = cc != NULL ? cc : list->cand_c;
-        list->capcand = c != NULL && cc != NULL ? need : 0;
-    }
-    if (need > list->capcand) {
-        checked = 0; /* out of memory: the next refresh checks every cell */
-    }
-    list->ncand = checked ? o->nc : 0;
-    for (int c = 0; c < list->ncand; c++) {
-        list->cand[c] = o->cand[c];
-        memcpy(list->cand_c[c], sp->s[o->cand[c]].c, sizeof list->cand_c[c]);
-    }
-    list->checked = checked;
-    list->film_set = o->film;
-    list->fresh_set = fresh_set;
-}
-
-/* 1 when only the near cells of list need checking: the others near k
- * are the same as when all its links were, none has moved by
- * SPHERES_NEAR_MARGIN since, and no link has or can have a film partner.
- * Then a far cell has no other sphere within a ray's reach, so its links
- * are k's as they were (a link changes hands only to a sphere within
- * reach of its cell), its cell is still fluid and its solid neighbour
- * still inside k (else a flag changed near k, and find_dirty has it built
- * anew), and its wall distance is k's own ray (spheres_link_delta). */
-static int near_check_holds(const spheres_t *sp, const link_list_t *list, const others_t *o)
-{
-    if (!list->checked || list->film_set || o->film || o->nc != list->ncand) {
-        return 0;
-    }
-    for (int c = 0; c < o->nc; c++) {
-        double d[3];
-        if (o->cand[c] != list->cand[c]) {
-            return 0;
-        }
-        spheres_min_image(sp, sp->s[o->cand[c]].c, list->cand_c[c], d);
-        if (!(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < SPHERES_NEAR_MARGIN * SPHERES_NEAR_MARGIN)) {
-            return 0;
-        }
-    }
     return 1;
 }
 
@@ -497,7 +189,7 @@ static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, others_t *
     others_find(sp, k, o);
     int checked = 1, fresh_set = 0;
     size_t e;
-    if (near_check_holds(sp, list, o)) {
+    if (others_near_check_holds(sp, list, o)) {
         for (size_t j = 0; j < list->nnear; j++) {
             if (!refresh_cell(sp, flags, k, o, list, list->near[j], 0, &e, &checked, &fresh_set)) {
                 return 0;
@@ -514,7 +206,7 @@ static int sphere_refresh(spheres_t *sp, const uint8_t *flags, int k, others_t *
             return 0;
         }
     }
-    note_checked(sp, list, o, checked, fresh_set);
+    others_note_checked(sp, list, o, checked, fresh_set);
     return 1;
 }
 
@@ -669,7 +361,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
     list->cap = cap;
     list->n = nl;
     carry_in(list);
-    note_checked(sp, list, o, checked, fresh_set);
+    others_note_checked(sp, list, o, checked, fresh_set);
     return 1;
 }
 
