@@ -295,11 +295,13 @@ static void free_master(master_t *m)
  * writes it; the others only say that the run stopped). */
 static void report_kept(const char *path, const log_t *log)
 {
-    double t = 0.0;
-    const long rows = mpi_env_rank() == 0 ? output_rows_readable(path, &t) : 0;
     if (mpi_env_rank() > 0) {
         log_msg(log, STATUS_ERROR, CAT, "stopped");
-    } else if (rows < 0) {
+        return;
+    }
+    double t = 0.0;
+    const long rows = output_rows_readable(path, &t);
+    if (rows < 0) {
         log_msg(log, STATUS_ERROR, CAT, "stopped; %s is not readable (its first rows could not be written)", path);
     } else {
         log_msg(log, STATUS_ERROR, CAT, "stopped; %s holds the %ld output rows written before (to t = %.9g s)", path,
