@@ -27,6 +27,7 @@ int main(int argc, char **argv)
     }
     fluid_register_tests(validate);
     scene_register_tests();
+    scene_refused_register_tests();
     scene_bad_register_tests();
     exact_sum_register_tests();
     big_alloc_register_tests();

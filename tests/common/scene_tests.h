@@ -2,9 +2,11 @@
 #ifndef TESTS_COMMON_SCENE_TESTS_H
 #define TESTS_COMMON_SCENE_TESTS_H
 
-/* Adds the "scene" suites to the current CUnit registry. The caller has
+/* Adds the "scene: valid input" suite to the current CUnit registry. The caller has
  * called CU_initialize_registry; errors are left in CU_get_error(). */
 void scene_register_tests(void);
+/* Adds the suite of bad input (test_scene_refused.c). */
+void scene_refused_register_tests(void);
 /* Adds the table of bad scenes (test_scene_bad.c). */
 void scene_bad_register_tests(void);
 

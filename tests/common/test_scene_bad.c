@@ -14,6 +14,7 @@
  * naming missing spheres, bad --set paths, files that are empty, not YAML,
  * deeply nested or very large, and YAML aliases. Rows that were bugs of the
  * reader say so. */
+#include "scene_harness.h"
 #include "scene_tests.h"
 
 #include "../../common/scene.h"
@@ -24,12 +25,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-/* Only the required keys (domain periodic, no bodies). */
-#define MINIMAL                                                            \
-    "domain: {size: [1.0e-3, 1.0e-3, 1.0e-3]}\n"                          \
-    "fluid: {density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-4, tau: 1.0}\n" \
-    "run: {end_time: 2.0}\n"
 
 typedef struct {
     int line;          /* > 0: this line of the base scene replaced by `text` */
@@ -409,28 +404,12 @@ static void bad_log(void *ctx, status_t level, const char *category, const char 
     snprintf(k->last, sizeof k->last, "%s", shown);
 }
 
-static char *base_with_line(int line, const char *replacement)
-{
-    size_t cap = strlen(scene_test_base) + strlen(replacement) + 2;
-    char *out = malloc(cap);
-    CU_ASSERT_PTR_NOT_NULL_FATAL(out);
-    const char *p = scene_test_base;
-    size_t pos = 0;
-    for (int l = 1; *p != '\0'; l++) {
-        size_t n = strcspn(p, "\n") + 1;
-        pos += (size_t)(l == line ? snprintf(out + pos, cap - pos, "%s\n", replacement)
-                                  : snprintf(out + pos, cap - pos, "%.*s", (int)n, p));
-        p += n;
-    }
-    return out;
-}
-
 /* Loads row i, checks it, and leaves what was logged in *k. */
 static void run_case(size_t i, bad_log_t *k)
 {
     const bad_scene_t *b = &CASES[i];
     char *yaml = b->gen ? b->gen()
-                 : b->line > 0 ? base_with_line(b->line, b->text)
+                 : b->line > 0 ? scene_test_base_with_line(b->line, b->text)
                                : strdup(b->text ? b->text : scene_test_base);
     CU_ASSERT_PTR_NOT_NULL_FATAL(yaml);
     *k = (bad_log_t){.dir = "/tmp/scene_bad_XXXXXX"};
