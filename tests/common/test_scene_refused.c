@@ -187,7 +187,8 @@ static void test_number_as_written(void)
     CU_ASSERT_EQUAL(scene_test_load(yaml, NULL, 0, cap, &s), STATUS_ERROR);
     CU_ASSERT_PTR_NULL(s);
     CU_ASSERT_EQUAL(cap->nerrors, 2);
-    scene_test_contains(cap, "scene.yaml:3: fluid.density: wrong type or value ('1,000' is not a number", __FILE__, __LINE__);
+    scene_test_contains(cap, "scene.yaml:3: fluid.density: wrong type or value ('1,000' is not a number", __FILE__,
+                        __LINE__);
     scene_test_contains(cap, "scene.yaml:4: fluid.viscosity: wrong type or value ('1.0e-6 m^2/s' is not a number: "
                          "' m^2/s' follows '1.0e-6')", __FILE__, __LINE__);
     free(cap);
