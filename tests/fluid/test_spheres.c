@@ -18,6 +18,7 @@
 #include "sphere_harness.h"
 #include "test_util.h"
 
+#include "../common/corrupt_state.h"
 #include "../../common/coupling.h"
 #include "../../fluid/fluid_internal.h"
 #include "../../fluid/lattice.h"
@@ -565,25 +566,13 @@ static void test_state_restore_bit_identical(void)
     fluid_free(r);
 }
 
-/* The header of a fluid state (fluid/state.c, state_header_t), to corrupt
- * its fields one at a time. */
+static status_t restore_fluid(void *fl, const void *buf, size_t n) { return fluid_state_restore(fl, buf, n); }
+
 /* buf with len bytes at off replaced by v: refused with expect in the message. */
 static void expect_refused(fluid_t *r, const test_log_t *tl, const unsigned char *buf, size_t n, size_t off,
                            const void *v, size_t len, const char *expect)
 {
-    unsigned char *c = malloc(n);
-    CU_ASSERT_FATAL(c != NULL);
-    memcpy(c, buf, n);
-    memcpy(c + off, v, len);
-    const status_t st = fluid_state_restore(r, c, n);
-    const int named = strstr(tl->last, expect) != NULL;
-    if (st != STATUS_ERROR || !named) {
-        printf("\n    corrupted at byte %zu: status %d, expected an error naming '%s'; last message: %s", off, (int)st,
-               expect, tl->last);
-    }
-    CU_ASSERT_EQUAL(st, STATUS_ERROR);
-    CU_ASSERT(named);
-    free(c);
+    expect_corrupt_refused(restore_fluid, r, tl->last, buf, n, off, v, len, expect);
 }
 
 /* Every part of a state the restore checks, corrupted one at a time (the
