@@ -42,7 +42,7 @@ MODEL_SRC   := common/fmi_vars.c common/h5fields.c common/h5_cause.c fluid/fluid
 COUPLER_SRC := coupler/main.c coupler/mpi_env.c coupler/check_ranks.c coupler/bench.c coupler/run.c coupler/signals.c coupler/run_checkpoint.c coupler/fmu.c coupler/output.c coupler/export.c coupler/checkpoint.c coupler/summary.c coupler/resources.c \
                $(MODEL_SRC)
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_boundary.c tests/fluid/test_kernel.c tests/fluid/test_layouts.c tests/fluid/test_schedules.c \
-               tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/drag_report.c tests/fluid/test_spheres.c \
+               tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/drag_report.c tests/fluid/test_spheres.c tests/fluid/test_sphere_motion.c \
                tests/fluid/approach_harness.c tests/fluid/test_wall_approach.c tests/common/scene_harness.c tests/common/test_scene.c \
                tests/common/test_scene_refused.c tests/common/test_scene_bad.c tests/common/test_exact_sum.c tests/common/test_big_alloc.c tests/common/test_fmi_vars.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \

@@ -67,31 +67,26 @@ void refill_cell(refill_t kind, spheres_t *sp, const grid_t *g, const uint8_t *f
         best_cos = fmax(best_cos, cs[q]);
     }
     rho = nrho > 0 ? rho / nrho : 1.0;
-    /* the non-equilibrium part extrapolated along the direction nearest the
-     * normal, the mean over the tied ones */
+    /* the non-equilibrium part of the fluid neighbour along the direction
+     * nearest the normal, the mean over the tied ones. Not the linear
+     * extrapolation 2 n(x + c) - n(x + 2c) (used before 2026-11-27): behind a
+     * moving sphere x + c and x + 2c are cells refilled the same way a few
+     * steps earlier, and the recursion amplifies grid-scale noise up to
+     * threefold per refill; near tau = 1/2, where that noise is hardly damped,
+     * it grew until the run stopped (multireflection, tau 0.51, a sphere of
+     * radius 5 moving 0.045 cells a step: negative density at step 550;
+     * CUnit sphere_motion). */
     double neq[LB_Q] = {0.0};
     int ntied = 0;
     for (int d = 1; d < LB_Q && kind == REFILL_EXTRAPOLATION && nrho > 0; d++) {
         if (!(cs[d] >= best_cos - REFILL_TIE)) {
             continue;
         }
-        size_t i2;
-        uint8_t f2;
         const size_t i1 = nb[d];
-        const int two = neighbour(sp, g, flags, X, d, 2, &i2, &f2) && f2 == 0;
-        double r1, u1[3], r2 = 0.0, u2[3] = {0.0, 0.0, 0.0};
+        double r1, u1[3];
         moments(sp, p, i1, &r1, u1);
-        if (two) {
-            moments(sp, p, i2, &r2, u2);
-        }
         for (int q = 0; q < LB_Q; q++) {
-            const double n1 = spheres_post(sp, p, q, i1) - lb_feq(q, r1, u1[0], u1[1], u1[2]);
-            if (two) {
-                const double n2 = spheres_post(sp, p, q, i2) - lb_feq(q, r2, u2[0], u2[1], u2[2]);
-                neq[q] += 2.0 * n1 - n2;
-            } else {
-                neq[q] += n1;
-            }
+            neq[q] += spheres_post(sp, p, q, i1) - lb_feq(q, r1, u1[0], u1[1], u1[2]);
         }
         ntied++;
     }

@@ -3,11 +3,14 @@
  * equilibrium    the paper's scheme: f = feq(rho, u_s), rho the mean density
  *                of the fluid neighbours, u_s the velocity of the sphere
  *                surface point nearest to the cell.
- * extrapolation  equilibrium plus the non-equilibrium part extrapolated from
- *                the fluid neighbours along the lattice direction closest to
- *                the surface normal (Caiazzo, Prog. Comput. Fluid Dyn. 8 (2008)
- *                3; second order where two fluid nodes exist, first order
- *                where one exists, equilibrium where none does).
+ * extrapolation  equilibrium plus the non-equilibrium part of the fluid
+ *                neighbour along the lattice direction closest to the surface
+ *                normal (Caiazzo, Prog. Comput. Fluid Dyn. 8 (2008) 3, his
+ *                equilibrium + non-equilibrium refill; the non-equilibrium
+ *                extrapolation of Guo, Zheng & Shi, Chin. Phys. 11 (2002)
+ *                366): f_neq is O(dx) and changes by O(dx^2) over a cell, so
+ *                the copy is second order. Equilibrium where no fluid
+ *                neighbour exists.
  * A neighbour counts when its flag is plain fluid (not solid, ghost, or
  * itself uncovered in this step). Periodic axes wrap. */
 #ifndef FLUID_REFILL_H

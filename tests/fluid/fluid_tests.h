@@ -10,6 +10,7 @@ void layouts_register_tests(void);
 void schedules_register_tests(void);
 void flows_register_tests(int validate);
 void spheres_register_tests(int validate);
+void sphere_motion_register_tests(void);
 void approach_register_tests(int validate);
 
 #endif

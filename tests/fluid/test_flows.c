@@ -607,5 +607,6 @@ void fluid_register_tests(int validate)
     schedules_register_tests();
     flows_register_tests(validate);
     spheres_register_tests(validate);
+    sphere_motion_register_tests();
     approach_register_tests(validate);
 }

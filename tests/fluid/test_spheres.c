@@ -12,7 +12,8 @@
  *   position relative to the grid (see README for a sweep).
  * - Hofmann et al. (1999), torque on a sphere rotating in a periodic cube:
  *   T = -8 pi mu a^3 Omega / (1 - phi - 1.95708 phi^(10/3)).
- * - Ray-sphere intersection (the paper's Eq. 5) against brute force. */
+ * - Ray-sphere intersection (the paper's Eq. 5) against brute force.
+ * Moving spheres, their speed limit and trouble next to them: test_sphere_motion.c. */
 #include "fluid_tests.h"
 #include "drag_report.h"
 #include "sphere_harness.h"
@@ -408,50 +409,6 @@ static void test_rotating_sphere_torque(void)
     CU_ASSERT(fabs(err) < 0.02);
 }
 
-/* ---- moving sphere: momentum book-keeping and fluctuations --------------- */
-
-typedef struct {
-    double drift_per_step; /* |P_fluid + impulse - P0| / steps, lattice */
-    double fluct;          /* std/mean of the drag after the transient */
-    double mean;
-} moving_t;
-
-static moving_t moving_sphere(boundary_scheme_t scheme, force_method_t force, refill_t refill, collision_t op,
-                              double a, long steps, int driven)
-{
-    const harness_moving_t h = harness_moving_sphere(scheme, force, refill, op, a, steps, driven);
-    moving_t r = {h.drift_per_step, h.fluct, h.mean};
-    return r;
-}
-
-static void test_moving_sphere_momentum_bounce_back(void)
-{
-    const moving_t m = moving_sphere(BOUNDARY_BOUNCE_BACK, FORCE_MOMENTUM_EXCHANGE, REFILL_EQUILIBRIUM,
-                                     COLLISION_TRT, 4.0, 400, 0);
-    printf("\n    bounce-back: momentum drift %.2e per step (drag %.3e)", m.drift_per_step, m.mean);
-    CU_ASSERT(m.drift_per_step < 1e-14 * 1e3 * fabs(m.mean) + 1e-15);
-}
-
-static void test_moving_sphere_fluctuation(void)
-{
-    const moving_t paper = moving_sphere(BOUNDARY_YU, FORCE_MOMENTUM_EXCHANGE, REFILL_EQUILIBRIUM, COLLISION_TRT,
-                                         5.0, 3000, 1);
-    const moving_t best = moving_sphere(BOUNDARY_CLI, FORCE_GALILEAN, REFILL_EXTRAPOLATION, COLLISION_TRT, 5.0,
-                                        3000, 1);
-    /* issue 11: multireflection at Lambda 1/4, the default, must not fluctuate more than cli (the
-     * default before it, at 3/16) */
-    const double magic = test_box_magic;
-    test_box_magic = 0.25;
-    const moving_t mr = moving_sphere(BOUNDARY_MULTIREFLECTION, FORCE_GALILEAN, REFILL_EXTRAPOLATION, COLLISION_TRT,
-                                      5.0, 3000, 1);
-    test_box_magic = magic;
-    printf("\n    drag fluctuation: paper (yu, mem, equilibrium) %.4f, cli + galilean + extrapolation %.4f, "
-           "multireflection %.4f",
-           paper.fluct, best.fluct, mr.fluct);
-    CU_ASSERT(best.fluct <= paper.fluct / 3.0);
-    CU_ASSERT(mr.fluct <= best.fluct);
-}
-
 /* ---- shift invariance across a periodic face ------------------------------ */
 
 static void test_shift_across_periodic_face(void)
@@ -486,40 +443,6 @@ static void test_shift_across_periodic_face(void)
                 CU_ASSERT(fabs(t[a] - t0[a]) < 1e-12 * fabs(f0[0]) * 4.2);
             }
         }
-        fluid_free(fl);
-    }
-}
-
-/* ---- symmetry ------------------------------------------------------------ */
-
-/* A sphere moving along z on the axis of a periodic box, its centre on the
- * mirror planes x = 8, y = 8 and x = y of the lattice: no force across the
- * axis and no torque, to round-off, while it uncovers cells behind it that
- * are mirror images of each other (refill by extrapolation, whose ties
- * between directions equally near a cell's normal must not pick one of
- * them: before, 1e-4 of the drag sideways). */
-static void test_mirror_symmetric_motion(void)
-{
-    static const refill_t refills[2] = {REFILL_EXTRAPOLATION, REFILL_EQUILIBRIUM};
-    for (int k = 0; k < 2; k++) {
-        scene_t s = test_box(16, 16, 24, 0.8, COLLISION_TRT);
-        const double c[3] = {7.5, 7.5, 10.3}; /* lattice: 8, 8, 10.8 */
-        scene_body_t *b = harness_one_sphere(&s, c, 4.6, MOTION_PRESCRIBED);
-        b->velocity[2] = -0.02;
-        s.fluid.boundary_scheme = BOUNDARY_CLI;
-        s.fluid.refill = refills[k];
-        fluid_t *fl = test_fluid(&s);
-        double f[3], t[3], worst = 0.0;
-        for (int n = 0; n < 120; n++) {
-            CU_ASSERT_EQUAL(fluid_step(fl), STATUS_OK);
-            fluid_sphere_load_lattice(fl, 0, f, t);
-            const double side = fmax(fabs(f[0]), fabs(f[1])), turn = fmax(fabs(t[0]), fmax(fabs(t[1]), fabs(t[2])));
-            worst = fmax(worst, fmax(side, turn / 4.6) / fabs(f[2]));
-        }
-        printf("\n    refill %d: %ld cells uncovered, largest force across the axis or torque / r: %.2g of the drag", k,
-               fl->spheres.uncovered_total, worst);
-        CU_ASSERT(fl->spheres.uncovered_total > 100);
-        CU_ASSERT(worst < 1e-11);
         fluid_free(fl);
     }
 }
@@ -773,108 +696,6 @@ static void test_coupling_drag_estimate(void)
     }
 }
 
-/* ---- bad input: a sphere that moves too far in one step ----------------- */
-
-static void test_sphere_speed_limits(void)
-{
-    scene_t s = test_box(16, 16, 16, 0.8, COLLISION_TRT);
-    const double c[3] = {8.0, 8.0, 8.0};
-    harness_one_sphere(&s, c, 3.0, MOTION_FREE);
-    test_log_t tl;
-    log_t l = test_log(&tl);
-    fluid_t *fl = NULL;
-    CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &fl), STATUS_OK);
-    const double v0[3] = {0.1, 0, 0}, w0[3] = {0, 0, 0};
-    double p[3] = {8.1, 8.0, 8.0};
-    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_OK);
-    /* 0.45 cells in one step: accepted */
-    tl.worst = STATUS_OK;
-    p[0] = 8.55;
-    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_OK);
-    CU_ASSERT(tl.worst < STATUS_ERROR);
-    /* 0.7 cells: an error naming the sphere, the distance, the step and the
-     * remedies, and the sphere stays where it was */
-    p[0] = 9.25;
-    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_ERROR);
-    CU_ASSERT(strstr(tl.last, "sphere 0 moves 0.7 cells in one step at step 0") != NULL);
-    CU_ASSERT(strstr(tl.last, "limit half a cell per step") != NULL);
-    CU_ASSERT(strstr(tl.last, "fluid.tau") != NULL && strstr(tl.last, "fluid.dx") != NULL);
-    double c1[3], v1[3], w1[3];
-    fluid_get_sphere(fl, 0, c1, v1, w1);
-    CU_ASSERT_DOUBLE_EQUAL(c1[0], 8.55, 1e-12);
-    /* a velocity above half a cell per step is refused too (0.6 cells) */
-    const double vfast[3] = {0.6, 0, 0};
-    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, c1, vfast, w0), STATUS_ERROR);
-    CU_ASSERT(strstr(tl.last, "moves 0.6 cells") != NULL);
-    fluid_free(fl);
-}
-
-/* The remedy of a too-fast sphere names the coupling first when the body is
- * light and not coupled implicitly with averaging (its speed most likely grew
- * by the added-mass instability), and does not advise a smaller tau when tau
- * is already close to 1/2. */
-static const char *too_fast_message(coupling_t coupling, int averaging, double tau, test_log_t *tl)
-{
-    scene_t s = test_box(16, 16, 16, tau, COLLISION_TRT);
-    const double c[3] = {8.0, 8.0, 8.0};
-    harness_one_sphere(&s, c, 3.0, MOTION_FREE)->density = 0.5 * s.fluid.density; /* light: kappa ~ 1.3 */
-    s.rigid.coupling = coupling;
-    s.fluid.force_averaging = averaging;
-    log_t l = test_log(tl);
-    fluid_t *fl = NULL;
-    if (fluid_create(&s, &l, &fl) != STATUS_OK) {
-        return "";
-    }
-    const double p[3] = {8.8, 8.0, 8.0}, v[3] = {0, 0, 0};
-    fluid_set_sphere(fl, 0, p, v, v);
-    fluid_free(fl);
-    return tl->last;
-}
-
-static void test_sphere_speed_remedies(void)
-{
-    test_log_t tl;
-    CU_ASSERT(strstr(too_fast_message(COUPLING_EXPLICIT, 0, 0.8, &tl), "set rigid.coupling: auto (the default) or implicit with fluid.force_averaging: true first") != NULL);
-    CU_ASSERT(strstr(too_fast_message(COUPLING_IMPLICIT, 0, 0.8, &tl), "set rigid.coupling: auto (the default) or implicit with fluid.force_averaging: true first") != NULL);
-    CU_ASSERT(strstr(too_fast_message(COUPLING_AUTO, -1, 0.8, &tl), "rigid.coupling") == NULL);
-    CU_ASSERT(strstr(tl.last, "fluid.tau closer to 0.5") != NULL);
-    CU_ASSERT(strstr(too_fast_message(COUPLING_AUTO, -1, 0.52, &tl), "fluid.tau closer to 0.5") == NULL);
-    CU_ASSERT(strstr(tl.last, "fluid.tau is already close to 0.5") != NULL && strstr(tl.last, "fluid.dx") != NULL);
-}
-
-/* ---- numerical trouble next to a sphere --------------------------------- */
-
-/* A NaN in a fluid cell next to the surface enters the sphere's load in the
- * next step: the cheap check at the end of a communication step
- * (fluid_check_loads) stops there, naming the sphere, and the scan the cell. */
-static void test_nan_load_detected(void)
-{
-    scene_t s = test_box(16, 16, 16, 0.8, COLLISION_TRT);
-    const double c[3] = {8.0, 8.0, 8.0};
-    harness_one_sphere(&s, c, 3.0, MOTION_FIXED);
-    test_log_t tl;
-    log_t l = test_log(&tl);
-    fluid_t *fl = NULL;
-    CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &fl), STATUS_OK);
-    test_run(fl, 2);
-    CU_ASSERT_EQUAL(fluid_check_loads(fl, 0.3), STATUS_OK);
-    const int nc = 16 * 16 * 16;
-    double *rho = malloc(sizeof(double) * nc);
-    CU_ASSERT_FATAL(rho != NULL);
-    for (int i = 0; i < nc; i++) {
-        rho[i] = 1.0;
-    }
-    rho[11 + 16 * (8 + 16 * 8)] = NAN; /* centre 11.5 m: 3.5 cells from the sphere's centre */
-    fluid_set_equilibrium_lattice(fl, rho, NULL);
-    free(rho);
-    CU_ASSERT_EQUAL(fluid_step(fl), STATUS_OK);
-    CU_ASSERT_EQUAL(fluid_check_loads(fl, 0.3), STATUS_ERROR);
-    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "non-finite hydrodynamic load on sphere 0 at (8, 8, 8) m"));
-    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "at step 3"));
-    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "the cell is named above"));
-    fluid_free(fl);
-}
-
 void spheres_register_tests(int validate)
 {
     CU_pSuite s = CU_add_suite("spheres", NULL, NULL);
@@ -887,18 +708,9 @@ void spheres_register_tests(int validate)
     CU_add_test(s, "periodic array r=4 at 6 places in the cell: multireflection less place-dependent than cli",
                 test_drag_any_position);
     CU_add_test(s, "rotating sphere r=8: Hofmann torque within 2%", test_rotating_sphere_torque);
-    CU_add_test(s, "moving sphere, bounce-back: momentum conserved", test_moving_sphere_momentum_bounce_back);
-    CU_add_test(s, "moving sphere: fluctuation a third of the paper's, multireflection <= cli",
-                test_moving_sphere_fluctuation);
     CU_add_test(s, "shift across a periodic face: same force", test_shift_across_periodic_face);
     CU_add_test(s, "state save/restore: bit-identical continuation", test_state_restore_bit_identical);
     CU_add_test(s, "state restore: each corrupted part refused, the component unchanged", test_state_corruption_refused);
-    CU_add_test(s, "a sphere moving on a mirror axis: no force across it, no torque (refill ties)",
-                test_mirror_symmetric_motion);
-    CU_add_test(s, "a sphere moving more than half a cell per step is refused", test_sphere_speed_limits);
-    CU_add_test(s, "a too-fast sphere's remedy: the coupling first for a light body, no smaller tau near 1/2",
-                test_sphere_speed_remedies);
-    CU_add_test(s, "numerical trouble: a NaN next to a sphere stops at its load", test_nan_load_detected);
     CU_add_test(s, "drag coefficients = the load's one-step response to v and w", test_drag_coefficients);
     CU_add_test(s, "coupling: geometric drag estimate = measured coefficient", test_coupling_drag_estimate);
     if (validate) {
