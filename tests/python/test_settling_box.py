@@ -51,6 +51,7 @@ U_TOL = {10: 0.06, 15: 0.05, 20: 0.05}   # |u_max / u_max(experiment) - 1|
 U_TOL_SHORT = {"E4": (0.85, 1.02), "E1": (0.92, 1.04)}   # u_max / u_max(experiment), short box
 NO_REBOUND = 0.05             # e below this: no rebound
 REBOUND = 0.5                 # e / e_dry above this at St >= 100
+NEAR_FIT = 0.1                # and this near exp(-35/St) (Legendre et al. 2005)
 
 
 def _run(scene, path, timeout=7200):
@@ -241,6 +242,9 @@ def restitution_checks(m, label):
             fail.append(f"{label}: St {m['st']:.2f}: rebound e = {m['e']:.3f} (no rebound expected, e < {NO_REBOUND})")
     if m["st"] >= 100 and not m["e"] / E_DRY > REBOUND:
         fail.append(f"{label}: St {m['st']:.1f}: e/e_dry = {m['e'] / E_DRY:.3f} (expected > {REBOUND})")
+    if m["st"] >= 100 and not abs(m["e"] / E_DRY - sc.legendre(m["st"])) < NEAR_FIT:
+        fail.append(f"{label}: St {m['st']:.1f}: e/e_dry = {m['e'] / E_DRY:.3f}, more than {NEAR_FIT} from "
+                    f"exp(-35/St) = {sc.legendre(m['st']):.3f}")
     if not m["e"] <= E_DRY * 1.02:
         fail.append(f"{label}: St {m['st']:.1f}: e = {m['e']:.3f} above the dry restitution {E_DRY}")
     return fail
@@ -257,10 +261,12 @@ def test_wet_restitution_two_regimes(coupler, tmp_path, st):
     assert not fail, "\n".join(fail)
 
 
-# St 500 (Re 450, 30 cells at tau 0.51) is left out: as the sphere rebounds, the fluid rushing into
-# the opening gap passes the Mach detector at the floor (Mach 0.306 at u = 0.05 and 30 cells,
-# 0.329 at u = 0.04 and 38 cells; the same with the build before the film zone): a lattice limit
-# of tau 0.51 in a gap below a cell, reported with step and place (README "Known problems")
+# St 500 (Re 450, 30 cells at tau 0.51) and, at ratio 8, St 300 (23 cells) are left out: after the
+# rebound (measured, e/e_dry 0.918 and 0.878 against 0.928 and 0.880 of the fit), the fluid rushing
+# into the opening gap passes the Mach detector at the floor (Mach 0.367 at step 984, density 0.60;
+# 0.301 at step 779): a lattice limit of tau 0.51 in a gap below a cell, reported with step and place
+# (README "Known problems"). Ratio 8 at St 200 stopped behind the falling sphere before the refill
+# took the neighbour's non-equilibrium part (2026-11-27, README "Refill").
 RESTITUTION_CURVE = {10.0: (1, 2, 5, 10, 20, 50, 100, 200), 8.0: (2, 10, 50, 200)}
 
 
