@@ -7,14 +7,14 @@
 
 #include <math.h>
 
-/* The cell X + k c_q (the block's, or another rank's in the sphere halo);
+/* The cell X + c_q (the block's, or another rank's in the sphere halo);
  * 0 beyond a wall. */
-static int neighbour(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, int k,
-                     size_t *out, uint8_t *flag)
+static int neighbour(spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q, size_t *out,
+                     uint8_t *flag)
 {
     int Y[3];
     for (int a = 0; a < 3; a++) {
-        Y[a] = X[a] + k * lb_c[q][a];
+        Y[a] = X[a] + lb_c[q][a];
     }
     return spheres_cell(sp, g, flags, Y, out, flag);
 }
@@ -55,7 +55,7 @@ void refill_cell(refill_t kind, spheres_t *sp, const grid_t *g, const uint8_t *f
     for (int q = 1; q < LB_Q; q++) {
         uint8_t fl;
         cs[q] = -2.0; /* not a fluid neighbour */
-        if (!neighbour(sp, g, flags, X, q, 1, &nb[q], &fl) || fl != 0) {
+        if (!neighbour(sp, g, flags, X, q, &nb[q], &fl) || fl != 0) {
             continue;
         }
         double r, u[3];
