@@ -99,15 +99,23 @@ static void test_mirror_symmetric_motion(void)
 
 /* ---- bad input: a sphere that moves too far in one step ----------------- */
 
-static void test_sphere_speed_limits(void)
+/* A sphere of radius 3 at the centre of a periodic 16^3 box at tau 0.8, its
+ * messages in tl. */
+static fluid_t *centred_sphere(motion_t motion, test_log_t *tl)
 {
     scene_t s = test_box(16, 16, 16, 0.8, COLLISION_TRT);
     const double c[3] = {8.0, 8.0, 8.0};
-    harness_one_sphere(&s, c, 3.0, MOTION_FREE);
-    test_log_t tl;
-    log_t l = test_log(&tl);
+    harness_one_sphere(&s, c, 3.0, motion);
+    log_t l = test_log(tl);
     fluid_t *fl = NULL;
     CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &fl), STATUS_OK);
+    return fl;
+}
+
+static void test_sphere_speed_limits(void)
+{
+    test_log_t tl;
+    fluid_t *fl = centred_sphere(MOTION_FREE, &tl);
     const double v0[3] = {0.1, 0, 0}, w0[3] = {0, 0, 0};
     double p[3] = {8.1, 8.0, 8.0};
     CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, p, v0, w0), STATUS_OK);
@@ -173,13 +181,8 @@ static void test_sphere_speed_remedies(void)
  * (fluid_check_loads) stops there, naming the sphere, and the scan the cell. */
 static void test_nan_load_detected(void)
 {
-    scene_t s = test_box(16, 16, 16, 0.8, COLLISION_TRT);
-    const double c[3] = {8.0, 8.0, 8.0};
-    harness_one_sphere(&s, c, 3.0, MOTION_FIXED);
     test_log_t tl;
-    log_t l = test_log(&tl);
-    fluid_t *fl = NULL;
-    CU_ASSERT_EQUAL_FATAL(fluid_create(&s, &l, &fl), STATUS_OK);
+    fluid_t *fl = centred_sphere(MOTION_FIXED, &tl);
     test_run(fl, 2);
     CU_ASSERT_EQUAL(fluid_check_loads(fl, 0.3), STATUS_OK);
     const int nc = 16 * 16 * 16;
