@@ -596,6 +596,25 @@ status_t fluid_check_loads(fluid_t *fl, double mach_limit)
     return STATUS_OK;
 }
 
+status_t fluid_check_load_sizes(fluid_t *fl, double mach_limit, const unsigned char *only)
+{
+    for (int i = 0; i < fl->spheres.n; i++) {
+        const sphere_t *p = &fl->spheres.s[i];
+        if (only != NULL && !only[i]) {
+            continue;
+        }
+        double f[3], t[3];
+        delivered_load(p, f, t);
+        const double fn = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+        const double tn = sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+        if (fn > LOAD_SLIP_MAX * p->zt || tn * p->r > LOAD_SLIP_MAX * p->zr) {
+            /* the same load on every rank: every rank scans */
+            return fluid_check(fl, mach_limit);
+        }
+    }
+    return STATUS_OK;
+}
+
 int fluid_nspheres(const fluid_t *fl) { return fl->spheres.n; }
 
 status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[3], const double w[3])

@@ -506,6 +506,14 @@ static status_t fluid_fmi_step(void *comp, const fmi_vars_t *vars, const double 
         return log_msg(log, st, "fluid", "the communication step of %ld LBM steps ends with a non-finite sphere load",
                        steps);
     }
+    /* loads a sane fluid cannot give, before a free body takes them (fluid.h) */
+    st = status_worst(st, fluid_check_load_sizes(m->fl, mach, m->is_free));
+    if (st >= STATUS_ERROR) {
+        return log_msg(log, st, "fluid",
+                       "the communication step of %ld LBM steps ends with a sphere load larger than a sane fluid "
+                       "gives, from the cells in trouble named above",
+                       steps);
+    }
     return st;
 }
 

@@ -143,6 +143,48 @@ def test_sphere_faster_than_half_a_cell_per_step_stops(coupler, tmp_path):
         assert v[-1] < -0.02  # it was falling fast, below the limit, at the last row
 
 
+# a heavy sphere (radius 4 cells) launched at 0.45 cells per step at tau 0.505 in a closed 24 x 16 x 16
+# box: the lattice cannot follow (Mach 0.35 at its surface in the first step, a negative density at
+# step 4), while the load stays finite
+LAUNCHED = """domain:
+  size: [2.4e-3, 1.6e-3, 1.6e-3]
+  faces:
+    x_min: {type: no_slip}
+    x_max: {type: no_slip}
+    y_min: {type: no_slip}
+    y_max: {type: no_slip}
+    z_min: {type: no_slip}
+    z_max: {type: no_slip}
+fluid: {density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-4, tau: 0.505}
+bodies:
+  - density: 3000.0
+    velocity: [2.7, 0, 0]
+    spheres:
+      - {center: [1.23e-3, 8.1e-4, 8.2e-4], radius: 4.0e-4}
+contacts: {model: spring_dashpot}
+run: {end_time: 5.0e-3, output_interval: 8.3335e-05}
+"""
+
+
+def test_finite_garbage_load_is_the_fluids_trouble(coupler, tmp_path):
+    """A finite load from a fluid in numerical trouble stops the run in the fluid, naming the cell
+    and the cause, before a free body takes it. Before, the load of step 4 (1420 times the sphere's
+    drag coefficient) threw the sphere 77 cells through the x_min wall and the rigid component
+    stopped the run blaming the contact: "overlaps face x_min by 0.00767 m ... shorten
+    contacts.contact_time or raise rigid.substeps"."""
+    scene = tmp_path / "launched.yaml"
+    scene.write_text(LAUNCHED)
+    out = tmp_path / "launched.h5"
+    p = run("run", scene, "-o", out, "--quiet")
+    assert p.returncode == 1, p.stderr
+    line = trouble_line(p.stderr)
+    assert re.search(r"numerical trouble at step [1-4] \(t = [0-9.e+-]+ s\), cell \(\d+, \d+, \d+\) at \([^)]*\) m: "
+                     r"(non-positive density|velocity above the Mach limit)", line), line
+    assert "sphere load larger than a sane fluid gives" in p.stderr
+    assert "overlaps face" not in p.stderr and "contact_time" not in p.stderr, p.stderr
+    assert_rows_finite(out, 1)
+
+
 TOUCHING = """\
 domain: {size: [1.0e-4, 1.0e-4, 1.0e-4]}
 fluid: {density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-5, tau: 1.0}
