@@ -43,15 +43,6 @@ static void moments(const spheres_t *sp, const pops_t *p, size_t i, double *rho,
  * settling on the axis of a symmetric box began to turn, 3e-4 rad/s after
  * four mirror-image cells were refilled, found by a sweep of unseen scenes). */
 #define REFILL_TIE 1e-12
-/* The weight of a direction falls linearly from the best one's to 0 over
- * this much of the cosine, so that the refill depends continuously on the
- * normal: with the nearest direction alone, a normal moved by round-off
- * past a tie switched from the mean of two neighbours to one of them, a
- * jump of the whole difference of their non-equilibrium parts (single
- * precision, multireflection, tau 0.51: a sphere falling on the axis of a
- * symmetric box met a sideways force of 5.4e-3 of its drag and moved 1e-3
- * cells off the axis; double 3.5e-14). */
-#define REFILL_BLEND 0.02
 
 void refill_cell(refill_t kind, spheres_t *sp, const grid_t *g, const uint8_t *flags, const pops_t *p,
                  const int X[3], const double normal[3], const double us[3], double mom[3])
@@ -85,23 +76,22 @@ void refill_cell(refill_t kind, spheres_t *sp, const grid_t *g, const uint8_t *f
      * it grew until the run stopped (multireflection, tau 0.51, a sphere of
      * radius 5 moving 0.045 cells a step: negative density at step 550;
      * CUnit sphere_motion). */
-    double neq[LB_Q] = {0.0}, wsum = 0.0;
+    double neq[LB_Q] = {0.0};
+    int ntied = 0;
     for (int d = 1; d < LB_Q && kind == REFILL_EXTRAPOLATION && nrho > 0; d++) {
-        /* tied directions weigh exactly alike (mirror images stay mirror images) */
-        const double wd = cs[d] >= best_cos - REFILL_TIE ? REFILL_BLEND : cs[d] - (best_cos - REFILL_BLEND);
-        if (!(wd > 0.0)) {
+        if (!(cs[d] >= best_cos - REFILL_TIE)) {
             continue;
         }
         const size_t i1 = nb[d];
         double r1, u1[3];
         moments(sp, p, i1, &r1, u1);
         for (int q = 0; q < LB_Q; q++) {
-            neq[q] += wd * (spheres_post(sp, p, q, i1) - lb_feq(q, r1, u1[0], u1[1], u1[2]));
+            neq[q] += spheres_post(sp, p, q, i1) - lb_feq(q, r1, u1[0], u1[1], u1[2]);
         }
-        wsum += wd;
+        ntied++;
     }
-    for (int q = 0; q < LB_Q && wsum > 0.0; q++) {
-        neq[q] /= wsum;
+    for (int q = 0; q < LB_Q && ntied > 1; q++) {
+        neq[q] /= ntied;
     }
     mom[0] = mom[1] = mom[2] = 0.0;
     for (int q = 0; q < LB_Q; q++) {
