@@ -76,7 +76,8 @@ void scene_test_contains(const capture_t *cap, const char *needle, const char *f
     CU_assertImplementation(ok ? CU_TRUE : CU_FALSE, (unsigned)line, msg, file, "", CU_FALSE);
 }
 
-void scene_test_expect_error(const char *file, int line, const char *yaml, const char *const *ov, int nov, ...)
+void scene_test_expect_error(const char *file, int line, const char *yaml, const char *const *ov, int nov,
+                             int nerrors, ...)
 {
     capture_t *cap = malloc(sizeof *cap);
     CU_ASSERT_PTR_NOT_NULL_FATAL(cap);
@@ -89,9 +90,14 @@ void scene_test_expect_error(const char *file, int line, const char *yaml, const
     if (st < STATUS_ERROR) {
         scene_free(s);
     }
-    CU_ASSERT(cap->nerrors >= 1);
+    if (nerrors > 0) {
+        CU_assertImplementation(st == STATUS_ERROR && cap->nerrors == nerrors ? CU_TRUE : CU_FALSE, (unsigned)line,
+                                "STATUS_ERROR with exactly the expected number of errors", file, "", CU_FALSE);
+    } else {
+        CU_ASSERT(cap->nerrors >= 1);
+    }
     va_list ap;
-    va_start(ap, nov);
+    va_start(ap, nerrors);
     for (const char *needle = va_arg(ap, const char *); needle != NULL; needle = va_arg(ap, const char *)) {
         scene_test_contains(cap, needle, file, line);
     }
@@ -125,6 +131,6 @@ void scene_test_expect_line_error(const char *file, int test_line, int line, con
                                   const char *n2, const char *n3)
 {
     char *yaml = scene_test_base_with_line(line, replacement);
-    scene_test_expect_error(file, test_line, yaml, NULL, 0, n1, n2, n3, (const char *)NULL);
+    scene_test_expect_error(file, test_line, yaml, NULL, 0, 0, n1, n2, n3, (const char *)NULL);
     free(yaml);
 }

@@ -28,8 +28,10 @@ status_t scene_test_load(const char *yaml, const char *const *ov, int nov, captu
 /* A CUnit assertion at file:line that the captured log holds needle. */
 void scene_test_contains(const capture_t *cap, const char *needle, const char *file, int line);
 /* Loads yaml with the overrides and expects failure with every needle
- * (a NULL-terminated list) in the captured messages. */
-void scene_test_expect_error(const char *file, int line, const char *yaml, const char *const *ov, int nov, ...);
+ * (a NULL-terminated list) in the captured messages: STATUS_ERROR and exactly
+ * nerrors error messages when nerrors > 0, at least one error when 0. */
+void scene_test_expect_error(const char *file, int line, const char *yaml, const char *const *ov, int nov,
+                             int nerrors, ...);
 /* The base scene with one line replaced (1-based; malloc'ed), for errors
  * located by line. */
 char *scene_test_base_with_line(int line, const char *replacement);
@@ -38,7 +40,10 @@ void scene_test_expect_line_error(const char *file, int test_line, int line, con
                                   const char *n2, const char *n3);
 
 #define EXPECT_ERROR(yaml, ov, nov, ...) \
-    scene_test_expect_error(__FILE__, __LINE__, yaml, ov, nov, __VA_ARGS__, (const char *)NULL)
+    scene_test_expect_error(__FILE__, __LINE__, yaml, ov, nov, 0, __VA_ARGS__, (const char *)NULL)
+/* The same with exactly n error messages (every violation reported). */
+#define EXPECT_N_ERRORS(n, yaml, ov, nov, ...) \
+    scene_test_expect_error(__FILE__, __LINE__, yaml, ov, nov, n, __VA_ARGS__, (const char *)NULL)
 
 /* One override on the base scene. */
 #define EXPECT_SET_ERROR(set, ...)                             \

@@ -181,17 +181,9 @@ static void test_number_as_written(void)
                                "  dx: 1.0e-4\n"
                                "  tau: 1.0\n"
                                "run: {end_time: 2.0}\n";
-    capture_t *cap = malloc(sizeof *cap);
-    CU_ASSERT_PTR_NOT_NULL_FATAL(cap);
-    scene_t *s = NULL;
-    CU_ASSERT_EQUAL(scene_test_load(yaml, NULL, 0, cap, &s), STATUS_ERROR);
-    CU_ASSERT_PTR_NULL(s);
-    CU_ASSERT_EQUAL(cap->nerrors, 2);
-    scene_test_contains(cap, "scene.yaml:3: fluid.density: wrong type or value ('1,000' is not a number", __FILE__,
-                        __LINE__);
-    scene_test_contains(cap, "scene.yaml:4: fluid.viscosity: wrong type or value ('1.0e-6 m^2/s' is not a number: "
-                         "' m^2/s' follows '1.0e-6')", __FILE__, __LINE__);
-    free(cap);
+    EXPECT_N_ERRORS(2, yaml, NULL, 0, "scene.yaml:3: fluid.density: wrong type or value ('1,000' is not a number",
+                    "scene.yaml:4: fluid.viscosity: wrong type or value ('1.0e-6 m^2/s' is not a number: "
+                    "' m^2/s' follows '1.0e-6')");
 }
 
 /* ------------------------------------------------------------------------ */
@@ -462,16 +454,7 @@ static void test_run_length(void)
 static void test_many_errors(void)
 {
     const char *const ov[] = {"fluid.tau=0.4", "bodies.0.density=0", "contacts.friction=-1"};
-    capture_t *cap = malloc(sizeof *cap);
-    CU_ASSERT_PTR_NOT_NULL_FATAL(cap);
-    scene_t *s = NULL;
-    CU_ASSERT_EQUAL(scene_test_load(BASE, ov, 3, cap, &s), STATUS_ERROR);
-    CU_ASSERT_PTR_NULL(s);
-    CU_ASSERT_EQUAL(cap->nerrors, 3);
-    scene_test_contains(cap, "fluid.tau = 0.4", __FILE__, __LINE__);
-    scene_test_contains(cap, "bodies.0.density = 0", __FILE__, __LINE__);
-    scene_test_contains(cap, "contacts.friction = -1", __FILE__, __LINE__);
-    free(cap);
+    EXPECT_N_ERRORS(3, BASE, ov, 3, "fluid.tau = 0.4", "bodies.0.density = 0", "contacts.friction = -1");
 }
 
 void scene_refused_register_tests(void)
