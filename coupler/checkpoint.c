@@ -3,7 +3,9 @@
  * Layout (HDF5):
  *   root attributes  format ("agglo checkpoint"), format_version, scene (the
  *                    scene text), origin_coupler, origin_fluid, origin_rigid,
- *                    step, nsteps, rows, next_out, exchange_every (int64),
+ *                    step, nsteps, rows, next_out, exchange_every, end_row (int64;
+ *                    end_row 1: the last row is the run's end row, off the
+ *                    output grid; absent in older checkpoints: 0),
  *                    h (s), wall [3] (s), ranks (int64), decomposition
  *                    [3] (int64: blocks along x, y, z)
  *   /fluid_state/K   uint8 [size]   fmi2SerializeFMUstate of the fluid FMU of
@@ -263,6 +265,7 @@ status_t checkpoint_write(const char *path, const scene_t *scene, const checkpoi
         what = "the origin attributes";
     } else if (!put_long(f, "step", c->step) || !put_long(f, "nsteps", c->nsteps) || !put_long(f, "rows", c->rows) ||
                !put_long(f, "next_out", c->next_out) || !put_long(f, "exchange_every", c->exchange_every) ||
+               !put_long(f, "end_row", c->end_row) ||
                !put_numbers(f, "h", H5T_NATIVE_DOUBLE, &c->h, 1) ||
                !put_numbers(f, "wall", H5T_NATIVE_DOUBLE, c->wall, 3) || !put_long(f, "ranks", c->ranks.ranks) ||
                !put_numbers(f, "decomposition", H5T_NATIVE_INT64, dims, 3)) {
@@ -471,6 +474,12 @@ status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoin
         c->row_at_step = fabs(t_last - (double)c->step * c->h) < 0.5 * c->h;
     }
     free(times);
+    long end_row = 0;
+    if (H5Aexists(f, "end_row") > 0 && !get_long(f, "end_row", &end_row)) {
+        st = log_msg(log, STATUS_ERROR, CAT, "%s: the attribute end_row is unreadable", path);
+        goto done;
+    }
+    c->end_row = c->row_at_step && end_row == 1;
     char block[64];
     snprintf(block, sizeof block, "/fluid_state/%d", rank);
     if (!get_array(f, block, H5T_NATIVE_UCHAR, 1, &fs, &c->fluid_size)) {

@@ -53,6 +53,8 @@ typedef struct {
     long next_out;        /* the next output row is due at next_out * run.output_interval */
     int row_at_step;      /* 1: the last of those rows is that of communication step `step` (read from the
                              copy of /output/time: a restart at its run's last step writes no second one) */
+    int end_row;          /* 1: that last row is the run's end row, off the output grid (a run continued past
+                             its end drops it, so that its output is that of one longer run) */
     int exchange_every;   /* LBM steps per communication step */
     double h;             /* communication step, s */
     checkpoint_ranks_t ranks;

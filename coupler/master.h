@@ -63,6 +63,7 @@ typedef struct {
     long n, nsteps, next_out;
     int k_lbm;
     double h, wall0, wall_before[3];
+    int end_row; /* 1: the row of step n is there only because the run ends at n (off the output grid) */
 } run_point_t;
 
 /* The checkpoint test (--checkpoint-test): the states saved at step n1, the

@@ -491,8 +491,12 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     shown.dt = dt; /* the time base of the run (may differ from units_derive's dt in the last bit) */
     /* a restart writes the output anew: the rows to the checkpoint from its copy */
     st = output_open(writer ? opt->output : NULL, scene, &shown, &layout, log, &out);
+    /* a run continued past the step where it ended leaves out the row it
+     * wrote there only because it ended (off the output grid): its output is
+     * then that of one longer run */
+    const int drop_end = opt->restart != NULL && restart.end_row && nsteps > restart.step;
     if (st < STATUS_ERROR && opt->restart != NULL) {
-        st = output_restore_rows(out, opt->restart, "/output", restart.rows);
+        st = output_restore_rows(out, opt->restart, "/output", restart.rows - drop_end);
     }
     free(pairs);
     /* what the run is, from the start: a run that fails keeps it too */
@@ -521,6 +525,12 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         m.settle_v = restart.settle_v;
         m.nsettle = restart.nsettle;
         restart.settle_t = restart.settle_v = NULL;
+        if (drop_end && m.nsettle > 0 && fabs(m.settle_t[m.nsettle - 1] - restart.step * h) < 0.5 * h) {
+            m.nsettle--; /* its settling summary's entry too */
+        }
+        if (drop_end) {
+            restart.row_at_step = 0;
+        }
     }
     const int settle = summary_settling_sphere(scene);
     double gdir[3] = {0, 0, 0};
@@ -545,7 +555,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     long next_out = restart.next_out;
     const double every = opt->checkpoint_every;
     long next_cp = every > 0.0 ? (long)floor(n0 * h / every + 1e-9 * dt / every) + 1 : 0;
-    run_point_t point = {0, nsteps, 0, k_lbm, h, wall0, {restart.wall[0], restart.wall[1], restart.wall[2]}};
+    run_point_t point = {0, nsteps, 0, k_lbm, h, wall0, {restart.wall[0], restart.wall[1], restart.wall[2]}, 0};
     double last_print = wall0;
     const double wstart = omp_get_wtime() - wall0; /* s: export, load, instantiate, initialise */
     double wout = 0.0; /* s: reading the outputs of a row (the fluid totals included) and writing rows */
@@ -556,7 +566,8 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
          * checkpoint has that row already (a run cut short at a checkpoint
          * restarted with that --steps wrote the row twice) */
         const int end_row = last && !(n == n0 && restart.row_at_step);
-        const int do_out = !cp.replay && (end_row || t >= next_out * oi - 1e-9 * dt);
+        const int due = t >= next_out * oi - 1e-9 * dt;
+        const int do_out = !cp.replay && (end_row || due);
         const double w_out0 = omp_get_wtime();
         if (do_out || (cp.n1 >= 0 && n >= cp.n1)) {
             if (master_read_row(&m) >= STATUS_ERROR) {
@@ -611,9 +622,15 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         if (!last && mpi_env_size() > 1 && mpi_env_max(&stop, log) != STATUS_OK) {
             goto stopped;
         }
-        if (!last && (cp_due || stop != 0)) {
+        /* and one at the last step, so that a run that ended can be
+         * continued with a larger --steps (not in --checkpoint-test's runs,
+         * and not when this run began at its last step: that checkpoint is
+         * the one it read) */
+        const int cp_end = last && every > 0.0 && n > n0 && cp.n1 < 0;
+        if ((!last && (cp_due || stop != 0)) || cp_end) {
             point.n = n;
             point.next_out = next_out;
+            point.end_row = last && end_row && !due;
             if (master_save_checkpoint(&m, out, &point) != STATUS_OK) {
                 goto stopped;
             }

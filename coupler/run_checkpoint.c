@@ -241,6 +241,7 @@ status_t master_save_checkpoint(master_t *m, output_t *out, const run_point_t *p
         c.rows = output_rows(out);
         c.next_out = p->next_out;
         c.exchange_every = p->k_lbm;
+        c.end_row = p->end_row;
         c.h = p->h;
         c.ranks = m->ranks;
         c.settle_t = m->settle_t;

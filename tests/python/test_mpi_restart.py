@@ -78,7 +78,8 @@ def reference(scenes, tmp_path_factory):
 @pytest.fixture(scope="module")
 def cut_short(scenes, tmp_path_factory):
     """Runs of 130 of the 240 steps with a checkpoint every 60, on 1 and 2
-    ranks: each leaves the checkpoint of step 120."""
+    ranks: each leaves the checkpoint of its last step, 130 (before one was
+    written at a run's end, that of step 120)."""
     runs = {}
     for ranks in (1, 2):
         d = tmp_path_factory.mktemp(f"short{ranks}")
@@ -98,7 +99,7 @@ def test_run_cut_short_then_restarted_is_bit_identical(scenes, reference, cut_sh
     out = cut_short[ranks]
     ckpt = out.with_name("run_checkpoint.h5")
     with h5py.File(ckpt, "r") as f:
-        assert int(f.attrs["step"]) == 120
+        assert int(f.attrs["step"]) == 130
         assert int(f.attrs["ranks"]) == ranks
         assert list(f.attrs["decomposition"]) == ([1, 1, 2] if ranks == 2 else [1, 1, 1])
         blocks = [f[f"fluid_state/{k}"][()] for k in range(ranks)]

@@ -99,9 +99,10 @@ def test_signal_writes_checkpoint_and_exits(coupler, reference, tmp_path, sig, c
 
 
 def test_restart_into_another_output_continues_a_copy_of_the_fields(coupler, reference, tmp_path):
-    # a run stopped at step 400 (checkpoints every 120 steps, fields every 180) and continued to 700
-    # in another folder under another name: its output and field file equal the uninterrupted run's,
-    # and the first run's field file is left as it was
+    # a run of 400 steps (checkpoints every 120 steps and at its end, fields every 180) continued to
+    # 700 in another folder under another name: its output and field file equal the uninterrupted
+    # run's, and the first run's field file is left as it was (the snapshots after a checkpoint are
+    # dropped by the same resume of the field file as in the SIGKILL tests above)
     sets = ["--set", "run.field_interval=0.003"]
     first = tmp_path / "first" / "run.h5"
     first.parent.mkdir()
@@ -110,7 +111,7 @@ def test_restart_into_another_output_continues_a_copy_of_the_fields(coupler, ref
     ckpt, old_fields = first.with_name("run_checkpoint.h5"), first.with_name("run_fields.h5")
     with h5py.File(ckpt, "r") as f:
         step = int(f.attrs["step"])
-    assert step == 360
+    assert step == 400  # the one at its last step (360 before it wrote one there)
     before = old_fields.read_bytes()
     moved = tmp_path / "second" / "continued.h5"
     moved.parent.mkdir()
@@ -233,24 +234,31 @@ def test_sigkill_without_checkpoint_keeps_the_rows_written(coupler, reference, t
 
 
 @pytest.mark.parametrize("output_interval", ["1e-9", "5e-5"])
-def test_restart_at_the_last_step_writes_its_row_once(coupler, tmp_path, output_interval):
-    """A run of 40 steps with a checkpoint at step 20, restarted with --steps
-    20: it begins at its last step. Its output must be the uninterrupted
-    20-step run's. With a row every step the checkpoint holds the row of
-    step 20 already, and the restart wrote it again (22 rows instead of 21,
-    the time 0.00033 s twice; the settling summary counted it twice too);
-    with a row every 3 steps (5e-5 s) step 20 has none and the end adds it."""
-    sets = ["--set", f"run.output_interval={output_interval}", "--set", "run.fields=false"]
+@pytest.mark.parametrize("steps", [20, 40])
+def test_a_run_that_ended_continues_as_one_longer_run(coupler, tmp_path, output_interval, steps):
+    """A run of 20 steps with --checkpoint-every writes its last checkpoint at
+    its last step (before, the last was the periodic one before the end: a run
+    that had ended could not be continued). Restarted from it with --steps 20
+    it begins at its last step and must write the 20-step run's output (with a
+    row every step the checkpoint holds the row of step 20 already, and a
+    restart there once wrote it again: 22 rows, the time 0.00033 s twice);
+    with --steps 40 the output and fields of the uninterrupted 40-step run.
+    With a row every 3 steps (5e-5 s) the row of step 20 is there only because
+    the first run ended there: the continued run leaves it out (it kept it
+    before: 16 rows against 15)."""
+    sets = ["--set", f"run.output_interval={output_interval}", "--set", "run.field_interval=1e-4"]
     ref = tmp_path / "ref.h5"
-    p = run("run", SCENE, "-o", ref, "--steps", "20", "--quiet", *sets)
+    p = run("run", SCENE, "-o", ref, "--steps", steps, "--quiet", *sets)
     assert p.returncode == 0, p.stderr
     out = tmp_path / "run.h5"
-    p = run("run", SCENE, "-o", out, "--steps", "40", "--quiet", "--checkpoint-every", "0.00033333333", *sets)
+    p = run("run", SCENE, "-o", out, "--steps", "20", "--quiet", "--checkpoint-every", "1", *sets)
     assert p.returncode == 0, p.stderr
     with h5py.File(tmp_path / "run_checkpoint.h5", "r") as f:
         assert f.attrs["step"] == 20
-    p = run("run", SCENE, "-o", out, "--steps", "20", "--quiet", "--restart", tmp_path / "run_checkpoint.h5", *sets)
+        assert f.attrs["end_row"] == (1 if output_interval == "5e-5" else 0)
+    p = run("run", SCENE, "-o", out, "--steps", steps, "--quiet", "--restart", tmp_path / "run_checkpoint.h5", *sets)
     assert p.returncode == 0, p.stderr
     assert_identical(ref, out)
+    assert_identical(tmp_path / "ref_fields.h5", tmp_path / "run_fields.h5")
     t = datasets(out)["time"]
     assert np.all(np.diff(t) > 0), t
