@@ -744,6 +744,11 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         }
     }
     printf("  output %s%s%s\n", opt->output, m.fields[0] != '\0' ? ", fields " : "", m.fields);
+    if (opt->checkpoint_every > 0.0 && nsteps > restart.step && cp.n1 < 0) {
+        printf("  checkpoint %s at the last step (%ld): to go on, `coupler run %s [the same --set options] --restart "
+               "%s -o %s --steps N` with N > %ld\n",
+               m.cp_path, nsteps, scene->path, m.cp_path, opt->output, nsteps);
+    }
     rc = 0;
     goto done;
 stopped:

@@ -253,6 +253,7 @@ def test_a_run_that_ended_continues_as_one_longer_run(coupler, tmp_path, output_
     out = tmp_path / "run.h5"
     p = run("run", SCENE, "-o", out, "--steps", "20", "--quiet", "--checkpoint-every", "1", *sets)
     assert p.returncode == 0, p.stderr
+    assert f"checkpoint {tmp_path / 'run_checkpoint.h5'} at the last step (20): to go on" in p.stdout
     with h5py.File(tmp_path / "run_checkpoint.h5", "r") as f:
         assert f.attrs["step"] == 20
         assert f.attrs["end_row"] == (1 if output_interval == "5e-5" else 0)
