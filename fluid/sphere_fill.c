@@ -31,7 +31,7 @@
  * to acc. */
 static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, const pops_t *f0,
                                                             const link_list_t *list, size_t n_begin, size_t n_end,
-                                                            xsum_t acc[8], int galilean, double inv_decay,
+                                                            xsum_t acc[SPHERE_NACC], int galilean, double inv_decay,
                                                             spheres_part_t part, layout_state_t state, int single)
 {
     const pops_t fl = pops_fixed(f0, state, single);
@@ -54,8 +54,8 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
      * the sphere's (common/exact_sum.h): the same bits on any ranks. The
      * cells' loads wait in cb and go in FILL_CHUNK at a time, four terms at
      * a time (xsum_add_array: the same value as one xsum_add per term) */
-    double cl[8] = {0.0};
-    double cb[8][FILL_CHUNK];
+    double cl[SPHERE_NACC] = {0.0};
+    double cb[SPHERE_NACC][FILL_CHUNK];
     int ncb = 0;
     const sphere_t *p = n_end > n_begin ? &sp->s[list->l[n_begin].sphere] : NULL;
     /* the recovery of n^- from the post-collision populations (below) holds
@@ -70,12 +70,12 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         const int q = l->q, o = lb_opposite(q);
         if (n == n_begin || !spheres_same_cell(l, l - 1)) { /* the links of a cell are consecutive (sphere_links) */
             if (n > n_begin) {
-                for (int a = 0; a < 8; a++) {
+                for (int a = 0; a < SPHERE_NACC; a++) {
                     cb[a][ncb] = cl[a];
                     cl[a] = 0.0;
                 }
                 if (++ncb == FILL_CHUNK) {
-                    for (int a = 0; a < 8; a++) {
+                    for (int a = 0; a < SPHERE_NACC; a++) {
                         xsum_add_array(&acc[a], cb[a], ncb);
                     }
                     ncb = 0;
@@ -210,8 +210,20 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         for (int a = 0; a < 3; a++) {
             df[a] = lb_cd[q][a] * mem - (galilean ? (f_old - f_new) * uw[a] : 0.0);
         }
-        if (l->film != -1) {
-            /* in the film zone: the normal part is the film's (sphere_links.c film_partner) */
+        if (l->film == -1) {
+            cl[8] += rho;
+            cl[9] += 1.0;
+        } else {
+            /* in the film zone: the normal part is the film's (sphere_links.c
+             * film_partner), less the ambient pressure: a uniform density
+             * rho_a books 2 w_q (rho_a - 1) c_q on every link, which sums to
+             * zero over the closed surface, and the film force (rigid/
+             * lubrication.c) is the excess over it. Left out with the rest,
+             * the ambient pressure pushed a sphere by (rho_a - 1)/3 times the
+             * area of the zone: into the wall at a raised pressure (an
+             * outlet's), off it at a lowered one. rho_a: the mean density at
+             * the sphere's other links in the last step (spheres_loads). */
+            const double amb = 2.0 * lb_w[q] * (p->rho_film - 1.0);
             double n[3] = {0.0, 0.0, 0.0};
             if (l->film >= 0) {
                 spheres_min_image(sp, p->c, sp->s[l->film].c, n);
@@ -222,7 +234,8 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
             } else {
                 n[(-2 - l->film) / 2] = 1.0;
             }
-            const double dn = df[0] * n[0] + df[1] * n[1] + df[2] * n[2];
+            const double dn = (df[0] - lb_cd[q][0] * amb) * n[0] + (df[1] - lb_cd[q][1] * amb) * n[1] +
+                              (df[2] - lb_cd[q][2] * amb) * n[2];
             for (int a = 0; a < 3; a++) {
                 df[a] -= dn * n[a];
             }
@@ -244,7 +257,7 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         cl[7] += k * (rc[0] * rc[0] + rc[1] * rc[1] + rc[2] * rc[2]);
     }
     if (p != NULL) {
-        for (int a = 0; a < 8; a++) {
+        for (int a = 0; a < SPHERE_NACC; a++) {
             cb[a][ncb] = cl[a];
             xsum_add_array(&acc[a], cb[a], ncb + 1);
         }
@@ -312,7 +325,7 @@ void spheres_fill(spheres_t *sp, const pops_t *f, spheres_part_t part)
         const size_t b = whole ? 0 : sp->parts[w].begin, e = whole ? l->n : sp->parts[w].end;
         xsum_t *acc = whole ? sp->s[k].acc : sp->parts[w].acc;
         if (!whole) {
-            for (int a = 0; a < 8; a++) {
+            for (int a = 0; a < SPHERE_NACC; a++) {
                 xsum_zero(&acc[a]);
             }
         }
@@ -321,7 +334,7 @@ void spheres_fill(spheres_t *sp, const pops_t *f, spheres_part_t part)
 #undef FILL
     }
     for (size_t w = 0; w < (whole ? 0 : nparts); w++) {
-        for (int a = 0; a < 8; a++) {
+        for (int a = 0; a < SPHERE_NACC; a++) {
             xsum_merge(&sp->s[sp->parts[w].sphere].acc[a], &sp->parts[w].acc[a]);
         }
     }
@@ -349,12 +362,12 @@ void spheres_loads(spheres_t *sp)
     const int parallel = decomp_parallel(sp->dc);
     if (parallel) {
         for (int k = 0; k < sp->n; k++) {
-            memcpy(sp->accbuf + (size_t)k * 8, sp->s[k].acc, sizeof sp->s[k].acc);
+            memcpy(sp->accbuf + (size_t)k * SPHERE_NACC, sp->s[k].acc, sizeof sp->s[k].acc);
         }
-        decomp_sum(sp->dc, sp->accbuf, 8 * sp->n);
+        decomp_sum(sp->dc, sp->accbuf, SPHERE_NACC * sp->n);
     }
     for (int k = 0; k < sp->n; k++) {
-        const xsum_t *a = parallel ? sp->accbuf + (size_t)k * 8 : sp->s[k].acc;
+        const xsum_t *a = parallel ? sp->accbuf + (size_t)k * SPHERE_NACC : sp->s[k].acc;
         sphere_t *p = &sp->s[k];
         for (int c = 0; c < 3; c++) {
             p->f[c] = xsum_value(&a[c]);
@@ -362,5 +375,11 @@ void spheres_loads(spheres_t *sp)
         }
         p->zt = xsum_value(&a[6]);
         p->zr = xsum_value(&a[7]);
+        /* the ambient density of the film zone for the next fill: the mean
+         * over the links outside it (none: the last one stays) */
+        const double nout = xsum_value(&a[9]);
+        if (nout > 0.0) {
+            p->rho_film = xsum_value(&a[8]) / nout;
+        }
     }
 }

@@ -160,7 +160,7 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     }
     sp->s = calloc((size_t)sp->n, sizeof *sp->s);
     sp->lists = calloc((size_t)sp->n, sizeof *sp->lists);
-    sp->accbuf = calloc((size_t)sp->n * 8, sizeof *sp->accbuf);
+    sp->accbuf = calloc((size_t)sp->n * SPHERE_NACC, sizeof *sp->accbuf);
     sp->kin = calloc((size_t)sp->n * 9, sizeof *sp->kin);
     sp->dirty = calloc((size_t)sp->n + 1, 1);
     if (sp->s == NULL || sp->lists == NULL || sp->accbuf == NULL || sp->kin == NULL || sp->dirty == NULL) {
@@ -189,6 +189,7 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
             p->body = b;
             p->motion = body->motion;
             p->density_ratio = body->density / s->fluid.density;
+            p->rho_film = 1.0;
             p->averaging = averaging;
             p->kappa_risky = kappa_risky;
             p->r = body->spheres[i].radius / u->dx;
@@ -426,7 +427,7 @@ status_t spheres_map(spheres_t *sp, const grid_t *g, uint8_t *flags, const pops_
         memset(sp->s[k].f, 0, sizeof sp->s[k].f);
         memset(sp->s[k].t, 0, sizeof sp->s[k].t);
         sp->s[k].zt = sp->s[k].zr = 0.0;
-        for (int a = 0; a < 8; a++) {
+        for (int a = 0; a < SPHERE_NACC; a++) {
             xsum_zero(&sp->s[k].acc[a]);
         }
     }

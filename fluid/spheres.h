@@ -31,6 +31,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* the sums of a sphere's fill: force (3), torque (3), the drag coefficients
+ * zt, zr, and the density and the number of its links outside the film zone */
+#define SPHERE_NACC 10
+
 typedef struct {
     double c[3], v[3], w[3]; /* centre (lattice coordinates), velocity, angular velocity (lattice units) */
     double r;                /* radius, cells */
@@ -39,9 +43,12 @@ typedef struct {
     double cb0[3], rel0[3];  /* prescribed: body centroid at t0, centre minus centroid at t0 */
     double vbody[3];         /* prescribed: velocity of the body centroid */
     double f[3], t[3];       /* load of the last step: force, torque about c */
-    xsum_t acc[8];           /* the load while it is summed: f, t, zt, zr (exact: any threads and ranks) */
+    xsum_t acc[SPHERE_NACC]; /* the load while it is summed: f, t, zt, zr, and the density outside the film
+                                zone (exact: any threads and ranks) */
     double fprev[3], tprev[3];
     double zt, zr;           /* drag coefficients of the last step: -dF/dv and -dT/dw (isotropic parts) */
+    double rho_film;         /* mean density at the fluid cells of its links outside the film zone, last step:
+                                the ambient pressure the film zone keeps (sphere_fill.c) */
     double density_ratio;    /* particle / fluid density */
     double cmap[3];          /* centre at the last map stage: a sphere that has not moved keeps its links */
     int averaging;           /* deliver the load averaged over two steps (common/coupling.h) */
@@ -155,7 +162,7 @@ typedef struct {
 /* A part of a sphere's list that one thread fills, and its load
  * (spheres_fill). */
 typedef struct {
-    xsum_t acc[8];
+    xsum_t acc[SPHERE_NACC];
     size_t begin, end;
     int sphere;
 } spheres_fill_part_t;

@@ -183,6 +183,7 @@ static status_t check_sphere(const fluid_t *fl, int k, const sphere_t *p)
         {"previous force", offsetof(sphere_t, fprev), 3},
         {"previous torque", offsetof(sphere_t, tprev), 3},
         {"drag coefficients", offsetof(sphere_t, zt), 2},
+        {"ambient density of the film zone", offsetof(sphere_t, rho_film), 1},
         {"centre at the last map", offsetof(sphere_t, cmap), 3},
         {"period-2 watch", offsetof(sphere_t, hist), 18 + 6 + 3},
     };

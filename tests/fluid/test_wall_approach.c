@@ -18,10 +18,12 @@
  * scene's default cut-off (2 cells) with the fluid's film zone. */
 #include "approach_harness.h"
 #include "fluid_tests.h"
+#include "test_util.h"
 
 #include <CUnit/CUnit.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 
 static void print_points(const char *what, const approach_point_t *p, int n)
 {
@@ -128,6 +130,56 @@ static void test_brenner_series(void)
     CU_ASSERT(fabs((brenner_lambda(199.0, 0) - 1.0) / (9.0 / 8.0 / 200.0) - 1.0) < 0.01);
 }
 
+/* The film zone leaves out the lattice's normal force where a surface is
+ * within the cut-off of a wall or of another body, but not the ambient
+ * pressure there: fixed spheres half a cell from a no-slip wall and from
+ * each other, in fluid at rest at density 1 + d, feel no load (a uniform
+ * pressure on a closed surface). When the zone's normal part was left out
+ * whole, a uniform raised pressure pushed the sphere into the wall by about
+ * d/3 times the zone's area: at d = 0.01 a load of 0.101 (wall), 0.034 and
+ * 0.068 (pair; now below 5e-15); an outlet pressure of 0.05 Pa made a
+ * wall-ward force of 57% of a fixed sphere's drag in an inlet-outlet
+ * channel (-3.5e-9 N at 0, -1.9e-8 N at 0.05 Pa; now +4.9e-10 N at both). */
+static void test_film_zone_keeps_ambient_pressure(void)
+{
+    const int L = 16, Lz = 24;
+    for (int pair = 0; pair < 2; pair++) {
+        for (int k = 0; k < 2; k++) {
+            const double d = k == 0 ? 0.01 : -0.01;
+            scene_t s = test_box(L, L, Lz, 0.8, COLLISION_TRT);
+            s.domain.faces[4].type = FACE_NO_SLIP;
+            s.domain.faces[5].type = FACE_NO_SLIP;
+            s.contacts.lubrication.enabled = 1;
+            s.contacts.lubrication.cutoff = 2.0;
+            /* half a cell from the floor, and the second sphere half a cell above it */
+            scene_sphere_t sph[2] = {{{8.2, 7.9, 4.5}, 4.0}, {{8.2, 7.9, 13.0}, 4.0}};
+            scene_body_t body[2] = {{.nspheres = 1, .spheres = &sph[0], .density = 2.0, .motion = MOTION_FIXED},
+                                    {.nspheres = 1, .spheres = &sph[1], .density = 2.0, .motion = MOTION_FIXED}};
+            s.bodies = body;
+            s.nbodies = pair ? 2 : 1;
+            fluid_t *fl = test_fluid(&s);
+            CU_ASSERT_FATAL(fl != NULL);
+            double *rho = malloc(sizeof(double) * L * L * Lz);
+            CU_ASSERT_FATAL(rho != NULL);
+            for (int i = 0; i < L * L * Lz; i++) {
+                rho[i] = 1.0 + d;
+            }
+            fluid_set_equilibrium_lattice(fl, rho, NULL);
+            free(rho);
+            test_run(fl, 20);
+            for (int b = 0; b < s.nbodies; b++) {
+                double f[3], t[3];
+                fluid_sphere_load_lattice(fl, b, f, t);
+                const double fn = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+                printf("\n    %s, density %.2f, sphere %d: load %.3g (z %.3g)", pair ? "pair" : "wall", 1.0 + d, b, fn,
+                       f[2]);
+                CU_ASSERT(fn < 1e-9);
+            }
+            fluid_free(fl);
+        }
+    }
+}
+
 void approach_register_tests(int validate)
 {
     CU_pSuite s = CU_add_suite("close approaches", NULL, NULL);
@@ -135,6 +187,8 @@ void approach_register_tests(int validate)
     CU_add_test(s, "sphere to wall r=8: Brenner within 5% at gap/a 1..0.05", test_wall_approach_quick);
     CU_add_test(s, "two spheres r=8, two placements: Brenner (free surface) within 5% at gap/a 0.2, 0.1, 0.05",
                 test_two_spheres_quick);
+    CU_add_test(s, "film zone at rest in fluid of density 1 +- 0.01: no load (wall and pair half a cell apart)",
+                test_film_zone_keeps_ambient_pressure);
     if (validate) {
         CU_pSuite v = CU_add_suite("close approaches-validate", NULL, NULL);
         CU_add_test(v, "sphere to wall r=8, 96^3: Brenner within 5% at gap/a 2..0.05", test_wall_approach_full);
