@@ -413,6 +413,8 @@ void fluid_share_kinematics(fluid_t *fl)
 }
 
 long fluid_step_count(const fluid_t *fl) { return fl->step; }
+
+void fluid_set_exchange_steps(fluid_t *fl, long k) { fl->exchange_steps = k; }
 double fluid_time(const fluid_t *fl) { return fl->t0 + (double)fl->step * fl->units.dt; }
 const units_t *fluid_units(const fluid_t *fl) { return &fl->units; }
 
@@ -644,6 +646,23 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
          * larger jump uncovers cells with no fluid neighbour to refill from
          * and makes the boundary force jump); the sphere stays where it was */
         const double dx = u->dx;
+        if (fl->exchange_steps > 1 && speed <= 0.5 && speed > 0.0) {
+            /* slow enough for one LBM step, but moved further since its last
+             * position: a communication step of several LBM steps holds the
+             * sphere in place and moves it at its end by all of them */
+            const double kmax = floor(0.5 / speed);
+            return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                           "%s: sphere %d moves %.3g cells in one step at step %ld (t = %.6g s), from (%.4g, %.4g, "
+                           "%.4g) m at %.4g m/s, %.3g cells per LBM step (limit half a cell per step: the boundary "
+                           "links and the refill of uncovered cells cannot follow a larger move): the sphere moved "
+                           "%.3g times as far as its speed carries it in one LBM step, since a communication step of "
+                           "%ld LBM steps (coupler run --exchange-every %ld) holds it in place and moves it at its "
+                           "end; use fewer LBM steps per communication step (--exchange-every at most %.0f at this "
+                           "speed)",
+                           fl->path, i, moved, fl->step, fluid_time(fl), (p->c[0] - 0.5) * dx, (p->c[1] - 0.5) * dx,
+                           (p->c[2] - 0.5) * dx, speed * u->dx / u->dt, speed, moved / speed, fl->exchange_steps,
+                           fl->exchange_steps, fmax(1.0, kmax));
+        }
         return log_msg(&fl->log, STATUS_ERROR, "fluid",
                        "%s: sphere %d moves %.3g cells in one step at step %ld (t = %.6g s), from (%.4g, %.4g, "
                        "%.4g) m at %.4g m/s (limit half a cell per step: the boundary links and the refill of "

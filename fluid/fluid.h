@@ -99,6 +99,9 @@ int fluid_nspheres(const fluid_t *fl);
  * refused with STATUS_ERROR and the remedies; the sphere then stays where it
  * was. Prescribed and fixed spheres move by themselves. */
 status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[3], const double w[3]);
+/* The LBM steps the spheres set next are held for (a master's communication
+ * step): named by fluid_set_sphere when a sphere moves too far in one. */
+void fluid_set_exchange_steps(fluid_t *fl, long k);
 void fluid_get_sphere(const fluid_t *fl, int i, double c[3], double v[3], double w[3]);
 /* Hydrodynamic force (N) and torque about the centre (N m) of the last step,
  * averaged over the last two steps when fluid.force_averaging is set. */

@@ -475,6 +475,8 @@ static status_t fluid_fmi_step(void *comp, const fmi_vars_t *vars, const double 
         }
     }
     status_t st = STATUS_OK;
+    const long steps = (long)nearbyint(h / fluid_units(m->fl)->dt);
+    fluid_set_exchange_steps(m->fl, steps);
     for (int i = 0; i < m->ns; i++) {
         if (m->is_free[i]) {
             const double *k = &m->kin[9 * i];
@@ -484,7 +486,6 @@ static status_t fluid_fmi_step(void *comp, const fmi_vars_t *vars, const double 
             }
         }
     }
-    const long steps = (long)nearbyint(h / fluid_units(m->fl)->dt);
     const double mach = m->scene->fluid.mach_limit;
     for (long n = 0; n < steps; n++) {
         st = status_worst(st, fluid_step(m->fl));

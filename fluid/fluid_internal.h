@@ -57,6 +57,7 @@ struct fluid {
     int skip_on;
     kernel_skip_t skip;
     long step;
+    long exchange_steps; /* LBM steps per communication step (fluid_set_exchange_steps; 0 or 1: one) */
     double t0;
     log_t log;
     char *path; /* scene file, for messages */

@@ -143,6 +143,28 @@ def test_sphere_faster_than_half_a_cell_per_step_stops(coupler, tmp_path):
         assert v[-1] < -0.02  # it was falling fast, below the limit, at the last row
 
 
+def test_sphere_moved_too_far_by_a_long_communication_step_names_exchange_every(coupler, tmp_path):
+    """With --exchange-every K the fluid holds a sphere in place for K LBM steps and moves it at
+    the end of the communication step: a heavy sphere coasting at 0.05 cells per LBM step (0.049 when it is set) moves
+    0.59 cells at once with K = 12. The fluid refuses the move, and the message names the communication
+    step and the largest K for that speed (10), not a time step or cells (before: 'use a smaller
+    time step (fluid.tau closer to 0.5, or fluid.dt), more cells ...', for a sphere ten times
+    slower than the limit). K = 8 (0.4 cells) runs."""
+    scene = tmp_path / "coasting.yaml"
+    scene.write_text(FALLING.replace("gravity: [0, 0, -0.5]", "gravity: [0, 0, 0]")
+                     .replace("  - density: 100000.0\n", "  - density: 100000.0\n    velocity: [0, 0, -0.003]\n")
+                     .replace("end_time: 1.0", "end_time: 0.08"))
+    out = tmp_path / "coasting.h5"
+    p = run("run", scene, "-o", out, "--quiet", "--exchange-every", "12")
+    assert p.returncode == 1, p.stderr
+    m = re.search(r"sphere 0 moves ([0-9.]+) cells in one step at step 12 .* ([0-9.]+) cells per LBM step", p.stderr)
+    assert m and 0.55 < float(m.group(1)) < 0.61 and 0.045 < float(m.group(2)) <= 0.05, p.stderr
+    assert "a communication step of 12 LBM steps (coupler run --exchange-every 12)" in p.stderr, p.stderr
+    assert "--exchange-every at most 10 at this speed" in p.stderr and "fluid.tau" not in p.stderr, p.stderr
+    p = run("run", scene, "-o", out, "--quiet", "--exchange-every", "8")
+    assert p.returncode == 0, p.stderr
+
+
 # a heavy sphere (radius 4 cells) launched at 0.45 cells per step at tau 0.505 in a closed 24 x 16 x 16
 # box: the lattice cannot follow (Mach 0.35 at its surface in the first step, a negative density at
 # step 4), while the load stays finite
