@@ -528,4 +528,7 @@ void scene_build(ctx_t *c, const raw_scene_t *r, scene_t *s)
         scene_check_speeds(c, s);
         scene_check_time_scales(c, s);
     }
+    if (domain_ok && c->nerrors == 0) {
+        scene_check_net_force(c, s);
+    }
 }

@@ -637,3 +637,75 @@ void scene_check_lubrication(ctx_t *c, const scene_t *s)
                      fmt_num(l->min_gap).s, fmt_num(l->cutoff).s, fmt_num(s->fluid.dx).s, fmt_num(hc).s,
                      fmt_num(hc).s);
 }
+
+/* A box that no face or held body can push against along a periodic axis
+ * (every face periodic, or free-slip, which takes the normal component
+ * only; no fixed or prescribed body) cannot take a net external force along
+ * it: the free bodies' net weight, (rho_b - rho_f) V_b g (the rigid
+ * component adds the buoyancy), and the fluid's body force on its volume
+ * then accelerate the whole suspension without bound, and a "settling" body
+ * never reaches a terminal velocity (a sphere of density ratio 2, radius 4
+ * cells, in a periodic 24^3 box with gravity: 0.0035 m/s after 3000 steps
+ * and still rising by 0.00057 m/s per 600, against 0.00049 m/s with the
+ * balancing body force). A periodic suspension's weight is carried by the
+ * mean pressure gradient: the fluid's body force minus the net weight over
+ * the fluid's volume. A warning with that body force; volumes of the
+ * spheres as given (overlaps of sintered spheres counted twice). */
+void scene_check_net_force(ctx_t *c, const scene_t *s)
+{
+    double vbox = s->domain.size[0] * s->domain.size[1] * s->domain.size[2], vsph = 0.0, w[3] = {0, 0, 0}, wabs = 0.0;
+    int nfree = 0;
+    for (int f = 0; f < 6; f++) {
+        const face_type_t t = s->domain.faces[f].type;
+        if (t != FACE_PERIODIC && t != FACE_FREE_SLIP) {
+            return; /* a wall, an inlet or an outlet takes any force */
+        }
+    }
+    for (int b = 0; b < s->nbodies; b++) {
+        const scene_body_t *body = &s->bodies[b];
+        double vb = 0.0;
+        for (int k = 0; k < body->nspheres; k++) {
+            vb += 4.0 / 3.0 * 3.14159265358979323846 * pow(body->spheres[k].radius, 3.0);
+        }
+        vsph += vb;
+        if (body->motion != MOTION_FREE) {
+            return; /* a held body takes any force */
+        }
+        nfree++;
+        for (int a = 0; a < 3; a++) {
+            const double wa = (body->density - s->fluid.density) * vb * s->rigid.gravity[a];
+            w[a] += wa;
+            wabs += fabs(wa);
+        }
+    }
+    const double vfluid = vbox - vsph;
+    if (nfree == 0 || !(vfluid > 0.0)) {
+        return; /* without bodies: fluid/units.c warns of a body force in a box without walls */
+    }
+    double net[3], fix[3], scale = wabs, unbalanced = 0.0;
+    int axis = -1;
+    for (int a = 0; a < 3; a++) {
+        scale += fabs(s->fluid.body_force[a]) * vfluid;
+        const int free_axis = s->domain.faces[2 * a].type == FACE_PERIODIC;
+        net[a] = free_axis ? w[a] + s->fluid.body_force[a] * vfluid : 0.0;
+        fix[a] = s->fluid.body_force[a] - net[a] / vfluid;
+        if (fabs(net[a]) > unbalanced) {
+            unbalanced = fabs(net[a]);
+            axis = a;
+        }
+    }
+    if (!(unbalanced > 1e-3 * scale) || axis < 0) {
+        return;
+    }
+    const int by_gravity = fabs(w[axis]) >= fabs(s->fluid.body_force[axis]) * vfluid;
+    scene_report_warn(c, by_gravity ? "rigid.gravity" : "fluid.body_force",
+                      "= %s: the free bodies' net weight (%s N, buoyancy included) and the fluid's body force on "
+                      "its volume (%s N) leave %s N along the periodic %c axis, where no face or held body can take "
+                      "it: the whole suspension accelerates without bound and no terminal velocity is reached. A "
+                      "periodic suspension's weight is carried by the mean pressure gradient: set fluid.body_force "
+                      "= %s N/m^3 (the net weight over the fluid's volume, the other way), or close the box with "
+                      "walls",
+                      fmt_vec(by_gravity ? s->rigid.gravity : s->fluid.body_force, 3).s, fmt_vec(w, 3).s,
+                      fmt_num(s->fluid.body_force[axis] * vfluid).s, fmt_vec(net, 3).s, AXIS_NAMES[axis],
+                      fmt_vec(fix, 3).s);
+}

@@ -281,6 +281,7 @@ void scene_unwrap_bodies(scene_t *s);
 void scene_check_initial_profile(ctx_t *c, scene_t *s); /* sets fluid.channel_axis */
 void scene_check_speeds(ctx_t *c, const scene_t *s);
 void scene_check_time_scales(ctx_t *c, const scene_t *s);
+void scene_check_net_force(ctx_t *c, const scene_t *s);
 /* The steps of the run countable: at most SCENE_STEPS_MAX (scene.h). */
 void scene_check_run_length(ctx_t *c, const scene_t *s);
 void scene_check_lubrication(ctx_t *c, const scene_t *s);

@@ -404,6 +404,58 @@ static void test_lubrication_keys(void)
     EXPECT_SET_ERROR("contacts.lubrication.width=1", "contacts.lubrication.width");
 }
 
+/* A periodic box takes no net force: free bodies settling in it with
+ * nothing to balance their net weight accelerate the whole suspension
+ * without bound (a sphere of density ratio 2 in a periodic 24^3 box, gravity
+ * along x: 0.0035 m/s after 3000 steps and still rising, against 0.00049
+ * m/s with the balancing body force; no warning before). A warning names the
+ * axis and the fluid body force that balances it; a balanced box, a wall
+ * (even a free-slip face across the gravity), or a held body: none. */
+static void test_unbalanced_periodic_weight(void)
+{
+    static const char yaml[] = "domain:\n"
+                               "  size: [2.4e-3, 2.4e-3, 2.4e-3]\n"
+                               "fluid: {density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-4, tau: 0.8}\n"
+                               "bodies:\n"
+                               "  - density: 2000.0\n"
+                               "    spheres:\n"
+                               "      - {center: [1.2e-3, 1.2e-3, 1.2e-3], radius: 4.0e-4}\n"
+                               "rigid: {gravity: [-0.05, 0, 0]}\n"
+                               "run: {end_time: 3.0}\n";
+    capture_t cap;
+    scene_t *s = NULL;
+    CU_ASSERT_EQUAL(scene_test_load(yaml, NULL, 0, &cap, &s), STATUS_OK);
+    CU_ASSERT_EQUAL(cap.nwarnings, 1);
+    scene_test_contains(&cap, "scene.yaml:8: rigid.gravity = [-0.05, 0, 0]: the free bodies' net weight", __FILE__,
+                        __LINE__);
+    scene_test_contains(&cap, "along the periodic x axis", __FILE__, __LINE__);
+    scene_test_contains(&cap, "set fluid.body_force = [0.98880", __FILE__, __LINE__);
+    scene_free(s);
+    const char *const quiet[][2] = {
+        {"fluid.body_force=[0.988802766585, 0, 0]", NULL},
+        {"domain.faces={x_min: {type: free_slip}, x_max: {type: free_slip}}", NULL},
+        {"domain.faces={y_min: {type: no_slip}, y_max: {type: no_slip}}", NULL},
+        {"bodies.0.density=1000", NULL},
+        {"rigid.gravity=[0, 0, 0]", "bodies.0.motion=fixed"},
+    };
+    for (size_t k = 0; k < sizeof quiet / sizeof quiet[0]; k++) {
+        const int n = quiet[k][1] != NULL ? 2 : 1;
+        CU_ASSERT_EQUAL(scene_test_load(yaml, quiet[k], n, &cap, &s), STATUS_OK);
+        CU_ASSERT_EQUAL(cap.nwarnings, 0);
+        scene_free(s);
+    }
+    /* a fixed body holds the fluid: a body force drives a flow through it */
+    const char *const held[] = {"rigid.gravity=[0, 0, 0]", "bodies.0.motion=fixed", "fluid.body_force=[1, 0, 0]"};
+    CU_ASSERT_EQUAL(scene_test_load(yaml, held, 3, &cap, &s), STATUS_OK);
+    CU_ASSERT_EQUAL(cap.nwarnings, 0);
+    scene_free(s);
+    /* a free body does not: the body force alone accelerates the box */
+    CU_ASSERT_EQUAL(scene_test_load(yaml, held + 2, 1, &cap, &s), STATUS_OK);
+    CU_ASSERT_EQUAL(cap.nwarnings, 1);
+    scene_test_contains(&cap, "fluid.body_force = [1, 0, 0]", __FILE__, __LINE__);
+    scene_free(s);
+}
+
 void scene_register_tests(void)
 {
     static const struct {
@@ -420,6 +472,7 @@ void scene_register_tests(void)
         {"repeatable", test_repeatable},
         {"contacts.lubrication", test_lubrication_keys},
         {"body across a periodic face", test_body_across_periodic_face},
+        {"unbalanced weight in a periodic box warns", test_unbalanced_periodic_weight},
     };
     CU_pSuite s = CU_add_suite("scene: valid input", NULL, NULL);
     if (s == NULL) {
