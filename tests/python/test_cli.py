@@ -48,6 +48,18 @@ def test_check_warns_on_high_mach(coupler):
     assert "Mach" in p.stderr and "warning" in p.stderr
 
 
+@pytest.mark.parametrize("sets", [[], ["--set", "rigid.gravity=[-0.05, 0, 0]"],
+                                  ["--set", "rigid.gravity=[-0.05, 0, 0]", "--set", "fluid.dx=1e-7"]])
+def test_check_counts_every_warning_it_prints(coupler, sets):
+    # the count left out the scene reader's own warnings (an unbalanced weight in a periodic box:
+    # one warning printed, "warnings 0")
+    p = run("check", MODELS / "sinking_sphere.yaml", "--set", "domain.faces={}", *sets)
+    assert p.returncode == 0, p.stderr
+    printed = sum(line.startswith("warning:") for line in p.stderr.splitlines())
+    assert f"warnings           {printed}\n" in p.stdout, (p.stdout, p.stderr)
+    assert printed >= len(sets) // 2
+
+
 def test_set_override_changes_tau(coupler):
     p = run("check", MODELS / "channel_poiseuille.yaml", "--set", "fluid.tau=1.1")
     assert p.returncode == 0, p.stderr
