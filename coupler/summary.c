@@ -52,9 +52,10 @@ void summary_settling(const scene_t *s, const double *settle_t, const double *se
         }
     }
     const double v = n > 0 ? sum / n : 0.0;
-    printf("  settling: terminal velocity %.4g m/s (mean over the last 20%% of the run, %ld rows), "
+    /* along gravity: a light sphere's are negative (it rises); Re of the speed */
+    printf("  settling: terminal velocity %.4g m/s along gravity (mean over the last 20%% of the run, %ld rows), "
            "Stokes (Eq. 10) %.4g m/s, Re = %.3g\n",
-           v, n, stokes, v * 2.0 * a / s->fluid.viscosity);
+           v, n, stokes, fabs(v) * 2.0 * a / s->fluid.viscosity);
     int free_slip = 1;
     double lmin = INFINITY;
     for (int f = 0; f < 6; f++) {

@@ -400,3 +400,16 @@ def test_body_across_a_periodic_face_moves_as_one_piece(coupler, tmp_path, motio
     dx = (pb[..., 0] - pa[..., 0] - 1.6e-4) / L
     assert np.abs(dx - np.round(dx)).max() < 1e-9
     assert np.abs(pb[..., 1:] - pa[..., 1:]).max() < 1e-12
+
+
+def test_settling_summary_of_a_rising_sphere(coupler, tmp_path):
+    # a light sphere rises: its velocity along gravity and Stokes' are negative, its Reynolds
+    # number is that of its speed (it was printed negative, "Re = -0.883", found by a sweep)
+    p = run("run", MODELS / "sinking_sphere.yaml", "-o", tmp_path / "r.h5", "--steps", "60", "--quiet",
+            "--set", "bodies.0.density=500", "--set", "run.fields=false")
+    assert p.returncode == 0, p.stderr
+    m = re.search(r"terminal velocity (\S+) m/s along gravity .*Stokes \(Eq. 10\) (\S+) m/s, Re = (\S+)", p.stdout)
+    assert m, p.stdout
+    v, stokes, re_ = map(float, m.groups())
+    assert v < 0 and stokes < 0 and re_ > 0
+    assert abs(re_ - abs(v) * 2 * 5e-5 / 1e-6) < 1e-2 * re_  # radius 5e-5 m, water (printed to 3 digits)
