@@ -96,9 +96,12 @@ static status_t verlet_forces(rigid_t *r, double t)
         return log_msg(&r->log, STATUS_ERROR, RIGID_CAT,
                        "verlet: unstable contact between sphere %d (body %d) and %s at t=%.9g s: sub-step %g s "
                        "times contact frequency sqrt(k/m_eff)=%g 1/s is %g, limit %g (contact time about %g s); "
-                       "use more substeps or the cvode BDF integrator",
+                       "use more substeps (rigid.substeps: at least %.0f for this step of %g s, the master's "
+                       "communication step: a master that exchanges every K fluid steps, coupler run "
+                       "--exchange-every K, needs K times as many) or the cvode BDF integrator",
                        i, r->spheres[i].body, other, t, hs, worst.omega0, worst.omega0 * hs, VERLET_MAX_H_OMEGA,
-                       3.14159265358979 / worst.omega0);
+                       3.14159265358979 / worst.omega0, ceil(worst.omega0 * hs * r->cfg.substeps / VERLET_MAX_H_OMEGA),
+                       hs * r->cfg.substeps);
     }
     if (rc > 0) {
         return rigid_fault_report(r, &r->fault, t);

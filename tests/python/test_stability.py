@@ -69,6 +69,8 @@ def test_stiff_contact(coupler, integrator, expected):
     assert verdict == expected, cause
     if expected == "detected":
         assert "substeps" in remedy, remedy
+        # how many, and that --exchange-every K needs K times as many (h sqrt(k/m) = 31.4)
+        assert "rigid.substeps: at least 32 for this step" in remedy and "--exchange-every K" in remedy, remedy
         change, fixed = sm.remedy_options(c, remedy, cause + ": " + remedy)[0]
         assert "rigid.substeps" in change
         again = sm.run_text(fixed.scene(), fixed.sets, fixed.steps, str(coupler), TIMEOUT)
