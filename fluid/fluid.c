@@ -646,35 +646,31 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
          * larger jump uncovers cells with no fluid neighbour to refill from
          * and makes the boundary force jump); the sphere stays where it was */
         const double dx = u->dx;
+        char why[768];
         if (fl->exchange_steps > 1 && speed <= 0.5 && speed > 0.0) {
             /* slow enough for one LBM step, but moved further since its last
              * position: a communication step of several LBM steps holds the
              * sphere in place and moves it at its end by all of them */
-            const double kmax = floor(0.5 / speed);
-            return log_msg(&fl->log, STATUS_ERROR, "fluid",
-                           "%s: sphere %d moves %.3g cells in one step at step %ld (t = %.6g s), from (%.4g, %.4g, "
-                           "%.4g) m at %.4g m/s, %.3g cells per LBM step (limit half a cell per step: the boundary "
-                           "links and the refill of uncovered cells cannot follow a larger move): the sphere moved "
-                           "%.3g times as far as its speed carries it in one LBM step, since a communication step of "
-                           "%ld LBM steps (coupler run --exchange-every %ld) holds it in place and moves it at its "
-                           "end; use fewer LBM steps per communication step (--exchange-every at most %.0f at this "
-                           "speed)",
-                           fl->path, i, moved, fl->step, fluid_time(fl), (p->c[0] - 0.5) * dx, (p->c[1] - 0.5) * dx,
-                           (p->c[2] - 0.5) * dx, speed * u->dx / u->dt, speed, moved / speed, fl->exchange_steps,
-                           fl->exchange_steps, fmax(1.0, kmax));
+            snprintf(why, sizeof why,
+                     "%.3g cells per LBM step, but %.3g times as far since a communication step of %ld LBM steps "
+                     "(coupler run --exchange-every %ld) holds it in place and moves it at its end; use fewer LBM "
+                     "steps per communication step (--exchange-every at most %.0f at this speed)",
+                     speed, moved / speed, fl->exchange_steps, fl->exchange_steps, fmax(1.0, floor(0.5 / speed)));
+        } else {
+            snprintf(why, sizeof why, "%s%s",
+                     p->kappa_risky >= COUPLING_AUTO_KAPPA ? RISKY_COUPLING_REMEDY "; otherwise " : "",
+                     u->tau >= 0.55 ? "use a smaller time step (fluid.tau closer to 0.5, or fluid.dt), more cells "
+                                      "(a smaller fluid.dx at the same tau: dt shrinks as dx^2), or a lower velocity"
+                                    : "use more cells (a smaller fluid.dx at the same tau: dt shrinks as dx^2) or a "
+                                      "lower velocity; fluid.tau is already close to 0.5, where a smaller tau makes "
+                                      "the lattice less stable");
         }
         return log_msg(&fl->log, STATUS_ERROR, "fluid",
                        "%s: sphere %d moves %.3g cells in one step at step %ld (t = %.6g s), from (%.4g, %.4g, "
                        "%.4g) m at %.4g m/s (limit half a cell per step: the boundary links and the refill of "
-                       "uncovered cells cannot follow a larger move): %s%s",
+                       "uncovered cells cannot follow a larger move): %s",
                        fl->path, i, worst, fl->step, fluid_time(fl), (p->c[0] - 0.5) * dx, (p->c[1] - 0.5) * dx,
-                       (p->c[2] - 0.5) * dx, speed * u->dx / u->dt,
-                       p->kappa_risky >= COUPLING_AUTO_KAPPA ? RISKY_COUPLING_REMEDY "; otherwise " : "",
-                       u->tau >= 0.55 ? "use a smaller time step (fluid.tau closer to 0.5, or fluid.dt), more cells "
-                                        "(a smaller fluid.dx at the same tau: dt shrinks as dx^2), or a lower velocity"
-                                      : "use more cells (a smaller fluid.dx at the same tau: dt shrinks as dx^2) or a "
-                                        "lower velocity; fluid.tau is already close to 0.5, where a smaller tau makes "
-                                        "the lattice less stable");
+                       (p->c[2] - 0.5) * dx, speed * u->dx / u->dt, why);
     }
     for (int a = 0; a < 3; a++) {
         p->c[a] = cn[a];
