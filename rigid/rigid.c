@@ -34,6 +34,7 @@ void rigid_free(rigid_t *r)
     free(r->sx);
     free(r->sv);
     free(r->lub_rate);
+    free(r->open_noted);
     free(r->bt);
     free(r->bf);
     free(r->st);
@@ -87,12 +88,13 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     r->sx = calloc(ns, sizeof *r->sx);
     r->sv = calloc(ns, sizeof *r->sv);
     r->lub_rate = calloc(ns, sizeof(double));
+    r->open_noted = calloc(ns, 1);
     int *members = malloc(ns * sizeof(int)), *ids = malloc(ns * sizeof(int));
     double (*c)[3] = malloc(ns * sizeof *c), (*s)[3] = malloc(ns * sizeof *s), (*j)[9] = malloc(ns * sizeof *j);
     double *rad = malloc(ns * sizeof(double));
     if (!r->spheres || !r->bodies || !r->scratch_bodies || !r->conn || !r->section || !r->touch || !r->pair_bound ||
         !r->pair_far || !r->sf || !r->st || !r->bf ||
-        !r->bt || !r->sx || !r->sv || !r->lub_rate || !members || !ids || !c || !s || !j || !rad) {
+        !r->bt || !r->sx || !r->sv || !r->lub_rate || !r->open_noted || !members || !ids || !c || !s || !j || !rad) {
         st = log_msg(log, STATUS_ERROR, RIGID_CAT,
                      "out of memory for the arrays of %zu spheres and %d connections (about %.4g MB: the touch "
                      "and body pair tables grow as spheres^2)",
@@ -243,6 +245,42 @@ static void load_correction(rigid_t *r)
     }
 }
 
+/* A free body that reaches an inlet or outlet face stays in the domain: the
+ * face holds it as a wall would (contact, no lubrication film) and it
+ * blocks part of the flow there. Said once per body (a user who expects it
+ * to leave with the flow would otherwise see it stop without a word). */
+static void note_open_faces(rigid_t *r)
+{
+    const rigid_config_t *cfg = &r->cfg;
+    for (int i = 0; i < r->nspheres; i++) {
+        const rigid_sphere_t *s = &r->spheres[i];
+        if (r->open_noted[i] || r->bodies[s->body].fixed) {
+            continue;
+        }
+        double c[3];
+        rigid_sphere_world(r, r->bodies, i, c, NULL, NULL);
+        for (int face = 0; face < 6; face++) {
+            const int ax = face / 2, side = face % 2;
+            if (!cfg->walls[ax][side] || cfg->wall_kind[ax][side] != RIGID_WALL_OPEN) {
+                continue;
+            }
+            const double gap = (side == 0 ? c[ax] - cfg->box_lo[ax] : cfg->box_hi[ax] - c[ax]) - s->radius;
+            if (!(gap <= 0.0)) {
+                continue;
+            }
+            log_msg(&r->log, STATUS_WARNING, RIGID_CAT,
+                    "body %d (sphere %d) reached the face %s at t=%.9g s, an inlet or outlet: bodies do not leave "
+                    "the domain, the face holds it as a wall would (contact, no lubrication film) and it blocks part "
+                    "of the flow there; to follow it further, make the domain longer",
+                    s->body, i, rigid_face_name(face), r->t);
+            for (int j = 0; j < r->nspheres; j++) {
+                r->open_noted[j] |= r->spheres[j].body == s->body;
+            }
+            break;
+        }
+    }
+}
+
 status_t rigid_step(rigid_t *r, double h)
 {
     assert(r != NULL);
@@ -287,6 +325,7 @@ status_t rigid_step(rigid_t *r, double h)
     if (broke || stuck) {
         st = rigid_sections_update(r);
     }
+    note_open_faces(r);
     return st;
 }
 

@@ -119,6 +119,7 @@ struct rigid {
     int nwatch, watch_cap;
     double watch_t;         /* time of its last sample (NaN: none yet) */
     double *watch_kick;     /* per body: |dv|, |dw| of velocity jumps outside the integrator since then */
+    unsigned char *open_noted; /* per sphere: its body's arrival at an inlet or outlet face was logged (not saved) */
     const struct rigid_integrator_ops *ops;
     void *integ;            /* integrator private data */
 };

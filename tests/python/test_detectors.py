@@ -232,3 +232,33 @@ def test_bodies_touching_at_rest_are_not_energy_growth(coupler, tmp_path):
     with h5py.File(out, "r") as f:
         v = f["/spheres/velocity"][-1]
     assert v[0, 2] < -1e-4 and abs(v[0, 2] - v[1, 2]) < 1e-9 * abs(v[0, 2])  # settling together
+
+
+def test_body_reaching_an_outlet_is_named_once(coupler, tmp_path):
+    """A neutrally buoyant sphere carried by a channel's flow to its pressure outlet stops there
+    (bodies never leave the domain): the rigid component says so once, with the body, the face
+    and the time, and the run goes on (it stopped there without a word, found by a sweep)."""
+    scene = tmp_path / "outlet.yaml"
+    scene.write_text("""domain:
+  size: [6.4e-3, 2.4e-3, 2.4e-3]
+  faces:
+    x_min: {type: velocity_inlet, velocity: [2.0e-3, 0, 0]}
+    x_max: {type: pressure_outlet, pressure: 0.0}
+    z_min: {type: no_slip}
+    z_max: {type: no_slip}
+fluid: {density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-4, tau: 0.8}
+bodies:
+  - density: 1000.0
+    spheres:
+      - {center: [4.8e-3, 1.2e-3, 1.2e-3], radius: 4.0e-4}
+run: {end_time: 0.6, output_interval: 0.01, fields: false}
+""")
+    p = run("run", scene, "-o", tmp_path / "outlet.h5", "--quiet")
+    assert p.returncode == 0, p.stderr
+    said = [line for line in p.stderr.splitlines() if "reached the face" in line]
+    assert len(said) == 1, p.stderr
+    m = re.search(r"body 0 \(sphere 0\) reached the face x_max at t=([0-9.]+) s, an inlet or outlet", said[0])
+    assert m and 0.2 < float(m.group(1)) < 0.6, said
+    with h5py.File(tmp_path / "outlet.h5", "r") as f:
+        x = f["spheres/position"][:, 0, 0]
+    assert x.max() <= 6.4e-3 - 4.0e-4 + 1e-5  # held at the face (a contact's overlap at most)
