@@ -272,7 +272,7 @@ static status_t cv_report(rigid_t *r, cvode_data_t *d, int flag, double tret)
     rigid_contact_info_t worst;
     unpack(r, N_VGetArrayPointer(d->y), r->scratch_bodies);
     int rc = rigid_forces(r, r->scratch_bodies, 0.0, &worst);
-    char where[160] = "";
+    char where[300] = "";
     if (rc < 0) {
         int bad = -1;
         for (int b = 0; b < r->nbodies && bad < 0; b++) {
@@ -286,6 +286,30 @@ static status_t cv_report(rigid_t *r, cvode_data_t *d, int flag, double tret)
     } else if (worst.sphere_i >= 0) {
         snprintf(where, sizeof where, "; stiffest contact: sphere %d of body %d, contact frequency %g 1/s",
                  worst.sphere_i, r->spheres[worst.sphere_i].body, worst.omega0);
+    } else if (flag == CV_TOO_MUCH_WORK) {
+        /* no contact to blame: the fastest turning body sets the steps */
+        int fast = -1;
+        double wmax = -1.0, vfast = 0.0;
+        for (int b = 0; b < r->nbodies; b++) {
+            if (r->scratch_bodies[b].fixed) {
+                continue;
+            }
+            double w[3];
+            rigid_body_omega(&r->scratch_bodies[b], w);
+            const double wn = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+            if (wn > wmax) {
+                const double *v = r->scratch_bodies[b].v;
+                wmax = wn;
+                fast = b;
+                vfast = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+            }
+        }
+        if (fast >= 0) {
+            snprintf(where, sizeof where,
+                     "; fastest turning body %d: |w| = %.3g rad/s, |v| = %.3g m/s (too fast for the tolerances: check "
+                     "its loads, or take a shorter step)",
+                     fast, wmax, vfast);
+        }
     }
     char name[64];
     flag_name(flag, name, sizeof name);
@@ -335,8 +359,17 @@ static status_t cv_advance(rigid_t *r, void *data, double h)
         }
     } else {
         /* step by step (the same internal steps as CV_NORMAL up to the stop
-         * time), so that the contact watch sees every accepted state */
+         * time), so that the contact watch sees every accepted state; each
+         * CV_ONE_STEP call is one step, so CVodeSetMaxNumSteps never stops
+         * this loop: the limit of CV_NORMAL is counted here */
+        long taken = 0;
         do {
+            if (taken++ >= CVODE_MAX_STEPS) {
+                snprintf(d->last_msg, sizeof d->last_msg,
+                         "%d internal steps (the limit per communication step) reached t = %.9g s of %.9g s",
+                         CVODE_MAX_STEPS, tret, tend);
+                return cv_report(r, d, CV_TOO_MUCH_WORK, tret);
+            }
             flag = CVode(d->mem, tend, d->y, &tret, CV_ONE_STEP);
             if (flag < 0) {
                 return cv_report(r, d, flag, tret);

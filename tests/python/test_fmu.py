@@ -10,6 +10,7 @@ import platform
 import shutil
 import struct
 import subprocess
+import time
 import xml.etree.ElementTree as ET
 import zipfile
 
@@ -572,6 +573,23 @@ def drive_again(s, state, inputs, t0, n):
     """Back to state, then n steps from t0 as drive."""
     s.fmu.setFMUstate(state)
     return drive(s, inputs, t0, n)
+
+
+def test_cvode_step_limit_holds_with_contacts(fmus, tmp_path):
+    """CVODE's limit of 200000 internal steps per communication step (README "Integrators") holds
+    with a contact model too (the scene's default spring_dashpot), where the step is taken one
+    internal step at a time for the contact watch and CVodeSetMaxNumSteps never applies. A torque
+    of 1e-3 N.m on the sphere (I = 8.1e-20 kg.m2) spins it past 1e10 rad/s within the step: before,
+    that step of 1e-5 s ran for 21 s (0.01 N.m: 188 s, and longer without bound for more) and
+    succeeded; now it fails after 200000 steps (0.6 s), as it did without a contact model."""
+    s = Slave(fmus["cvode"] / "rigid.fmu", tmp_path)
+    s.init()
+    s.fmu.setReal([s.vr["sphere[0].torque.z"]], [1e-3])
+    t0 = time.perf_counter()
+    s.fails(s.fmu.doStep, 0.0, DT, expect="200000 internal steps (the limit per communication step)")
+    assert time.perf_counter() - t0 < 10
+    assert any("CV_TOO_MUCH_WORK; fastest turning body 0" in m[2] for m in s.messages)
+    s.close()
 
 
 def test_fields_string_parameter_and_lazy_totals(coupler, tmp_path):
