@@ -166,7 +166,7 @@ fail:
 
 static void free_instance(inst_t *in)
 {
-    fmi_states_orphan(in);
+    fmi_states_free(in);
     fmi_drop_component(in);
     scene_free(in->base);
     fmi_vars_free(&in->vars);

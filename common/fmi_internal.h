@@ -104,8 +104,9 @@ struct inst {
 struct fmu_state {
     size_t size;          /* serialised bytes: header, values, native state */
     size_t head;          /* header and values, at the start of bytes */
-    inst_t *lazy;         /* the instance whose component holds the native part, or NULL: in bytes */
-    int orphan;           /* that instance was freed first: the native part is lost */
+    inst_t *owner;        /* the instance that made it (fmi2GetFMUstate, fmi2DeSerializeFMUstate): freed with it */
+    fmu_state_t *live_next; /* the registry of live states (fmi_state.c) */
+    inst_t *lazy;         /* the instance whose component holds the native part (the owner), or NULL: in bytes */
     fmu_state_t *next;    /* the instance's other lazy states */
     unsigned char *bytes; /* size bytes; head while lazy */
 };
@@ -113,9 +114,14 @@ struct fmu_state {
 /* Copies the native part of every lazy state of the instance, before a call
  * changes its component (a step, a parameter set, a reset, another state
  * restored); fmi2Error (logged, nothing changed) when memory is short.
- * fmi_states_orphan: the instance is being freed. */
+ * fmi_states_free: the instance is being freed, and with it every state it
+ * made that the master has not freed (FMI 2.0, fmi2FreeInstance frees all
+ * the memory the FMU allocated). Each FMU library keeps a registry of its
+ * live states, as of its instances: a handle that is not one (freed already,
+ * by fmi2FreeFMUstate or with its instance, or never returned) is refused,
+ * never read or freed again. */
 fmi2Status fmi_states_keep(inst_t *in, const char *fn);
-void fmi_states_orphan(inst_t *in);
+void fmi_states_free(inst_t *in);
 
 /* Logging (fmi_instance.c): through the FMI logger with the status as
  * category; errors always, other messages as fmi2SetDebugLogging asks.

@@ -2,10 +2,18 @@
  * self-contained byte blob (header, values, native state), so that
  * get/set and serialise/deserialise share one format. The native part of a
  * state taken from the instance is copied only when the component is about
- * to change (fmi_states_keep): until then the component is that part. */
+ * to change (fmi_states_keep): until then the component is that part.
+ *
+ * Every state is in a registry of the library's live states (under a mutex,
+ * as the instances are in fmi_instance.c) with the instance that made it:
+ * fmi2FreeInstance frees the states the master left (before, they stayed
+ * allocated: about the grid's size each), and a handle freed already or
+ * never returned is refused before anything behind it is read (before, a
+ * second fmi2FreeFMUstate of a copied handle aborted in free()). */
 #include "fmi_internal.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -23,6 +31,39 @@ typedef struct {
     double t, t_start, t_stop;
 } state_header_t;
 
+static pthread_mutex_t states_lock = PTHREAD_MUTEX_INITIALIZER;
+static fmu_state_t *states_head; /* guarded by states_lock */
+
+static void state_register(fmu_state_t *s, inst_t *owner)
+{
+    s->owner = owner;
+    pthread_mutex_lock(&states_lock);
+    s->live_next = states_head;
+    states_head = s;
+    pthread_mutex_unlock(&states_lock);
+}
+
+/* The live state behind a handle, or NULL (also for NULL); with take, it is
+ * removed from the registry (to be freed), so a second take finds nothing. */
+static fmu_state_t *state_find(const void *handle, int take)
+{
+    if (handle == NULL) {
+        return NULL;
+    }
+    pthread_mutex_lock(&states_lock);
+    fmu_state_t **p = &states_head;
+    while (*p != NULL && (const void *)*p != handle) {
+        p = &(*p)->live_next;
+    }
+    fmu_state_t *s = *p;
+    if (s != NULL && take) {
+        *p = s->live_next;
+        s->live_next = NULL;
+    }
+    pthread_mutex_unlock(&states_lock);
+    return s;
+}
+
 /* A lazy state out of its instance's list of lazy states: no longer lazy. */
 static void state_unlink(fmu_state_t *s)
 {
@@ -37,6 +78,7 @@ static void state_unlink(fmu_state_t *s)
     s->next = NULL;
 }
 
+/* Frees a state already taken out of the registry (state_find with take). */
 static void state_free(fmu_state_t *s)
 {
     if (s == NULL) {
@@ -78,13 +120,25 @@ fmi2Status fmi_states_keep(inst_t *in, const char *fn)
     return fmi2OK;
 }
 
-void fmi_states_orphan(inst_t *in)
+void fmi_states_free(inst_t *in)
 {
-    for (fmu_state_t *s = in->lazy_states, *next; s != NULL; s = next) {
-        next = s->next;
-        s->lazy = NULL;
-        s->next = NULL;
-        s->orphan = 1;
+    fmu_state_t *mine = NULL;
+    pthread_mutex_lock(&states_lock);
+    for (fmu_state_t **p = &states_head; *p != NULL;) {
+        fmu_state_t *s = *p;
+        if (s->owner == in) {
+            *p = s->live_next;
+            s->live_next = mine;
+            mine = s;
+        } else {
+            p = &s->live_next;
+        }
+    }
+    pthread_mutex_unlock(&states_lock);
+    while (mine != NULL) {
+        fmu_state_t *next = mine->live_next;
+        state_free(mine);
+        mine = next;
     }
     in->lazy_states = NULL;
 }
@@ -129,11 +183,16 @@ static fmi2Status save_state(inst_t *in, const char *fn, fmu_state_t **out)
     return fmi2OK;
 }
 
-/* A state whose instance was freed before its native part was copied. */
-static fmi2Status orphaned(const inst_t *in, const char *fn, const fmu_state_t *s)
+/* The live state behind a handle given to fn, or NULL (logged). */
+static fmu_state_t *live_state(const inst_t *in, const char *fn, const void *handle)
 {
-    return s->orphan ? fmi_fail(in, fn, "the FMU state was taken from an instance freed since (fmi2FreeInstance): "
-                                "its component's state is gone") : fmi2OK;
+    fmu_state_t *s = state_find(handle, 0);
+    if (s == NULL) {
+        fmi_fail(in, fn, "FMUstate %p is not a live FMU state of this FMU: freed already (fmi2FreeFMUstate, or "
+                 "fmi2FreeInstance of the instance that made it) or never returned by fmi2GetFMUstate or "
+                 "fmi2DeSerializeFMUstate", handle);
+    }
+    return s;
 }
 
 /* Checks that a blob was made by an FMU of this model and scene. */
@@ -181,7 +240,9 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
     if (st >= fmi2Error) {
         return st;
     }
-    state_free(*FMUstate); /* a previous state handed in for reuse */
+    state_register(s, in);
+    /* a previous state handed in for reuse; anything else is not ours to free */
+    state_free(state_find(*FMUstate, 1));
     *FMUstate = s;
     return fmi2OK;
 }
@@ -190,12 +251,12 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
 {
     const char *fn = "fmi2SetFMUstate";
     BEGIN(fn, M_FMU_STATE);
-    fmu_state_t *s = FMUstate;
     state_header_t h;
-    if (s == NULL) {
+    if (FMUstate == NULL) {
         return fmi_fail(in, fn, "FMUstate is NULL");
     }
-    if (orphaned(in, fn, s) != fmi2OK || check_blob(in, fn, s->bytes, s->size, &h) != fmi2OK) {
+    fmu_state_t *s = live_state(in, fn, FMUstate);
+    if (s == NULL || check_blob(in, fn, s->bytes, s->size, &h) != fmi2OK) {
         return fmi2Error;
     }
     /* this instance's own state, its component unchanged since (a change
@@ -264,7 +325,15 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
     if (FMUstate == NULL) {
         return fmi_fail(in, "fmi2FreeFMUstate", "FMUstate is NULL");
     }
-    state_free(*FMUstate);
+    fmu_state_t *s = state_find(*FMUstate, 1);
+    if (s == NULL && *FMUstate != NULL) {
+        /* freed already (a copy of the handle), with its instance, or never ours: not touched */
+        fmi_report(in, STATUS_WARNING, "fmi2FreeFMUstate", "FMUstate %p is not a live FMU state of this FMU (freed "
+                   "already, or with the instance that made it): ignored", *FMUstate);
+        *FMUstate = NULL;
+        return fmi2Warning;
+    }
+    state_free(s);
     *FMUstate = NULL;
     return fmi2OK;
 }
@@ -275,7 +344,11 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, si
     if (FMUstate == NULL || size == NULL) {
         return fmi_fail(in, "fmi2SerializedFMUstateSize", "%s is NULL", FMUstate == NULL ? "FMUstate" : "size");
     }
-    *size = ((const fmu_state_t *)FMUstate)->size;
+    const fmu_state_t *s = live_state(in, "fmi2SerializedFMUstateSize", FMUstate);
+    if (s == NULL) {
+        return fmi2Error;
+    }
+    *size = s->size;
     return fmi2OK;
 }
 
@@ -283,11 +356,11 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
 {
     const char *fn = "fmi2SerializeFMUstate";
     BEGIN(fn, M_FMU_STATE);
-    const fmu_state_t *s = FMUstate;
-    if (s == NULL || serializedState == NULL) {
-        return fmi_fail(in, fn, "%s is NULL", s == NULL ? "FMUstate" : "serializedState");
+    if (FMUstate == NULL || serializedState == NULL) {
+        return fmi_fail(in, fn, "%s is NULL", FMUstate == NULL ? "FMUstate" : "serializedState");
     }
-    if (orphaned(in, fn, s) != fmi2OK) {
+    const fmu_state_t *s = live_state(in, fn, FMUstate);
+    if (s == NULL) {
         return fmi2Error;
     }
     if (size != s->size) {
@@ -331,7 +404,8 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     s->size = size;
     s->head = size;
     memcpy(s->bytes, serializedState, size);
-    state_free(*FMUstate);
+    state_register(s, in);
+    state_free(state_find(*FMUstate, 1)); /* a previous state handed in for reuse, as fmi2GetFMUstate */
     *FMUstate = s;
     return fmi2OK;
 }
