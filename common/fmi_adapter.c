@@ -421,7 +421,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     if (fmi_states_keep(in, fn) >= fmi2Error) {
         return fmi2Error;
     }
-    if (in->model->check_step != NULL && in->model->check_step(in->comp, h, &in->log) >= STATUS_ERROR) {
+    if (in->model->check_step != NULL && in->model->check_step(in->comp, t, h, &in->log) >= STATUS_ERROR) {
         return fmi_fail(in, fn,
                         "communicationStepSize = %.17g s rejected (see the message above); the step was not taken",
                         h);

@@ -71,8 +71,10 @@ typedef struct {
     /* Creates the native component from the scene with parameters applied. */
     status_t (*create)(const scene_t *s, double t0, const log_t *log, void **comp);
     void (*free)(void *comp);
-    /* Optional: rejects a step size before anything changes (NULL: any h > 0). */
-    status_t (*check_step)(void *comp, double h, const log_t *log);
+    /* Optional: rejects a step size before anything changes (NULL: any h > 0);
+     * t is the communication point (a master's h = t_next - t carries the
+     * round-off of both times, which grows with |t|). */
+    status_t (*check_step)(void *comp, double t, double h, const log_t *log);
     /* Applies the inputs in values[] and advances from t by h > 0. */
     status_t (*step)(void *comp, const fmi_vars_t *vars, const double *values, double t, double h, const log_t *log);
     /* Writes every output into values[]. */

@@ -656,6 +656,40 @@ def drive_again(s, state, inputs, t0, n):
     return drive(s, inputs, t0, n)
 
 
+def test_fluid_takes_steps_that_are_differences_of_late_times(fmus, tmp_path):
+    """A master that starts late and passes h = t[n+1] - t[n], with t[n] = start + n dt, hands
+    the fluid a step off by the round-off of t (start 1000 s: h/dt = 0.999999997; 1e5 s:
+    1.00000034): it was refused as 'not a whole number of LBM steps' (tolerance 1e-9 h). Now an
+    ulp-sized error of |t| + h is taken as round-off, the step is one LBM step and the run equals
+    the one started at 0; a start so late that a double cannot resolve dt is refused, saying so."""
+    inputs = {"sphere[0].velocity.x": -2e-3}
+
+    def run(start, n=4):
+        s = Slave(fmus["free"] / "fluid.fmu", tmp_path, name=f"s{start:g}")
+        s.fmu.setupExperiment(startTime=start)
+        s.fmu.enterInitializationMode()
+        s.fmu.exitInitializationMode()
+        t = [start + k * DT for k in range(n + 1)]
+        for k in range(n):
+            s.fmu.setReal([s.vr["sphere[0].velocity.x"]], list(inputs.values()))
+            s.fmu.doStep(t[k], t[k + 1] - t[k])
+        out = s.outputs()
+        assert s.fmu.getRealStatus(2) == pytest.approx(t[n], rel=1e-15)  # fmi2LastSuccessfulTime
+        s.close()
+        return out
+
+    first = run(0.0)
+    for start in (1e3, 1e5):
+        assert ((start + DT) - start) / DT - 1 != 0
+        np.testing.assert_array_equal(run(start), first)
+    s = Slave(fmus["free"] / "fluid.fmu", tmp_path, name="late")
+    s.fmu.setupExperiment(startTime=1e12)
+    s.fmu.enterInitializationMode()
+    s.fmu.exitInitializationMode()
+    s.fails(s.fmu.doStep, 1e12, DT, expect="a double resolves times only to")
+    s.close()
+
+
 def test_cvode_step_limit_holds_with_contacts(fmus, tmp_path):
     """CVODE's limit of 200000 internal steps per communication step (README "Integrators") holds
     with a contact model too (the scene's default spring_dashpot), where the step is taken one
