@@ -461,6 +461,15 @@ static status_t fluid_fmi_check_step(void *comp, double t, double h, const log_t
     const double k = nearbyint(h / dt);
     const double roundoff = 4.0 * DBL_EPSILON * (fabs(t) + h), tol = fmax(1e-9 * h, roundoff);
     if (roundoff >= 0.25 * dt) {
+        /* also every step of more LBM steps than a long counts (h/dt above
+         * 2.8e14 here): it was counted as LONG_MIN, and the step of 1e20 s
+         * returned fmi2OK having taken none */
+        if (h > fabs(t)) {
+            return log_msg(log, STATUS_ERROR, "fluid",
+                           "communication step %.17g s (%.3g LBM steps of dt = %.17g s) is too long: a double "
+                           "resolves t + h only to %.3g s; allowed: steps below %.3g s",
+                           h, h / dt, dt, roundoff, dt / (16.0 * DBL_EPSILON));
+        }
         return log_msg(log, STATUS_ERROR, "fluid",
                        "at t = %.17g s a double resolves times only to %.3g s, too coarse for the LBM step dt = "
                        "%.17g s; start the experiment at a smaller time (fmi2SetupExperiment startTime)",

@@ -690,6 +690,19 @@ def test_fluid_takes_steps_that_are_differences_of_late_times(fmus, tmp_path):
     s.close()
 
 
+def test_fluid_refuses_a_step_of_more_lbm_steps_than_it_can_count(fmus, tmp_path):
+    """A communication step of 1e20 s (1e25 LBM steps: more than a long holds) was counted as
+    LONG_MIN LBM steps: fmi2DoStep returned fmi2OK having taken none, and the FMU's time was
+    1e20 s. Now it is refused, naming the longest step."""
+    s = Slave(fmus["free"] / "fluid.fmu", tmp_path)
+    s.init()
+    for h in (1e20, 9.3e18 * DT):
+        s.fails(s.fmu.doStep, 0.0, h, expect="is too long: a double resolves t + h only to")
+    assert s.fmu.getRealStatus(2) == 0.0  # fmi2LastSuccessfulTime
+    s.fmu.doStep(0.0, DT)
+    s.close()
+
+
 def test_cvode_step_limit_holds_with_contacts(fmus, tmp_path):
     """CVODE's limit of 200000 internal steps per communication step (README "Integrators") holds
     with a contact model too (the scene's default spring_dashpot), where the step is taken one
