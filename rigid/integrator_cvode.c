@@ -272,7 +272,7 @@ static status_t cv_report(rigid_t *r, cvode_data_t *d, int flag, double tret)
     rigid_contact_info_t worst;
     unpack(r, N_VGetArrayPointer(d->y), r->scratch_bodies);
     int rc = rigid_forces(r, r->scratch_bodies, 0.0, &worst);
-    char where[300] = "";
+    char where[512] = "";
     if (rc < 0) {
         int bad = -1;
         for (int b = 0; b < r->nbodies && bad < 0; b++) {
@@ -310,6 +310,22 @@ static status_t cv_report(rigid_t *r, cvode_data_t *d, int flag, double tret)
                      "its loads, or take a shorter step)",
                      fast, wmax, vfast);
         }
+    }
+    if (where[0] == '\0' && (flag == CV_LSETUP_FAIL || flag == CV_LSOLVE_FAIL || flag == CV_CONV_FAILURE ||
+                              flag == CV_ERR_FAILURE)) {
+        /* no contact, no non-finite force: the tolerances or the loads (an
+         * atol of 1e-300 or 1e300, or a load of 1e200 N, ended here without
+         * a word on either) */
+        double fmax_b = 0.0;
+        for (int i = 0; i < r->nspheres; i++) {
+            const double *f = r->spheres[i].load_f;
+            fmax_b = fmax(fmax_b, hypot(hypot(f[0], f[1]), f[2]));
+        }
+        snprintf(where, sizeof where,
+                 "; rigid.rtol = %g, rigid.atol = %g (on the scaled state: README \"Configuration\"), largest hydrodynamic load on a sphere %g N: "
+                 "tolerances far from the motion's scale or loads this large make CVODE's linear solve or error "
+                 "test fail; check them, or use rigid.integrator: verlet",
+                 r->cfg.rtol, r->cfg.atol, fmax_b);
     }
     char name[64];
     flag_name(flag, name, sizeof name);

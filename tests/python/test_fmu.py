@@ -720,6 +720,20 @@ def test_cvode_step_limit_holds_with_contacts(fmus, tmp_path):
     s.close()
 
 
+def test_cvode_failure_without_a_contact_names_tolerances_and_loads(fmus, tmp_path):
+    """A load of 1e200 N on the sphere makes CVODE fail in its linear setup (CV_LSETUP_FAIL): the
+    message named neither the tolerances nor the load (found by a helper's FMI sweep); now it
+    gives rigid.rtol, rigid.atol and the largest load on a sphere."""
+    s = Slave(fmus["cvode"] / "rigid.fmu", tmp_path)
+    s.init()
+    s.fmu.setReal([s.vr["sphere[0].force.x"]], [1e200])
+    s.fails(s.fmu.doStep, 0.0, DT, expect="cvode: CVode failed")
+    said = [m[2] for m in s.messages if "CVode failed" in m[2]]
+    assert said and "rigid.rtol = " in said[0] and "rigid.atol = " in said[0], said
+    assert "largest hydrodynamic load on a sphere 1e+200 N" in said[0], said
+    s.close()
+
+
 def test_fields_string_parameter_and_lazy_totals(coupler, tmp_path):
     """output.fields (String, only with run.fields) makes the fluid FMU write
     its own field snapshots; the fluid totals are outputs computed when read."""
