@@ -688,6 +688,14 @@ def test_fluid_takes_steps_that_are_differences_of_late_times(fmus, tmp_path):
     s.fmu.exitInitializationMode()
     s.fails(s.fmu.doStep, 1e12, DT, expect="a double resolves times only to")
     s.close()
+    # a communication point 5 LBM steps off where the FMU is, at t = 1e5 s: refused (the tolerance
+    # was 1e-9 |t|, 1e-4 s there; now a part of the step and a few ulps of t)
+    s = Slave(fmus["free"] / "fluid.fmu", tmp_path, name="off")
+    s.fmu.setupExperiment(startTime=1e5)
+    s.fmu.enterInitializationMode()
+    s.fmu.exitInitializationMode()
+    s.fails(s.fmu.doStep, 1e5 + 5 * DT, DT, expect="is not where the FMU is")
+    s.close()
 
 
 def test_fluid_refuses_a_step_of_more_lbm_steps_than_it_can_count(fmus, tmp_path):
