@@ -252,13 +252,16 @@ static void load_correction(rigid_t *r)
 static void note_open_faces(rigid_t *r)
 {
     const rigid_config_t *cfg = &r->cfg;
-    for (int i = 0; i < r->nspheres; i++) {
+    int open = 0;
+    for (int face = 0; face < 6; face++) {
+        open |= cfg->walls[face / 2][face % 2] && cfg->wall_kind[face / 2][face % 2] == RIGID_WALL_OPEN;
+    }
+    for (int i = 0; i < r->nspheres && open; i++) {
         const rigid_sphere_t *s = &r->spheres[i];
         if (r->open_noted[i] || r->bodies[s->body].fixed) {
             continue;
         }
-        double c[3];
-        rigid_sphere_world(r, r->bodies, i, c, NULL, NULL);
+        const double *c = r->sx[i]; /* the centres of the force evaluation at the step's end */
         for (int face = 0; face < 6; face++) {
             const int ax = face / 2, side = face % 2;
             if (!cfg->walls[ax][side] || cfg->wall_kind[ax][side] != RIGID_WALL_OPEN) {
