@@ -638,21 +638,6 @@ void scene_check_lubrication(ctx_t *c, const scene_t *s)
                      fmt_num(hc).s);
 }
 
-/* A box that no face or held body can push against along a periodic axis
- * (every face periodic, or free-slip, which takes the normal component
- * only; no fixed or prescribed body) cannot take a net external force along
- * it: the free bodies' net weight, (rho_b - rho_f) V_b g (the rigid
- * component adds the buoyancy), and the fluid's body force on its volume
- * then accelerate the whole suspension without bound, and a "settling" body
- * never reaches a terminal velocity (a sphere of density ratio 2, radius 4
- * cells, in a periodic 24^3 box with gravity: 0.0035 m/s after 3000 steps
- * and still rising by 0.00057 m/s per 600, against 0.00049 m/s with the
- * balancing body force). A periodic suspension's weight is carried by the
- * mean pressure gradient: the fluid's body force minus the net weight over
- * the fluid's volume. A warning with that body force; a body's volume is
- * the union of its spheres (lens_volume), and the tolerance of 1e-2 covers
- * the rest (three spheres overlapping, the rounding of a hand-computed
- * body force). */
 /* The volume two spheres share (the lens; the smaller sphere when one
  * holds the other). A body's volume is its spheres' less their lenses, as
  * the rigid component's union (rigid/body.c) where no three overlap. */
@@ -671,6 +656,21 @@ static double lens_volume(const scene_sphere_t *a, const scene_sphere_t *b)
            (12.0 * d);
 }
 
+/* A box that no face or held body can push against along a periodic axis
+ * (every face periodic, or free-slip, which takes the normal component
+ * only; no fixed or prescribed body) cannot take a net external force along
+ * it: the free bodies' net weight, (rho_b - rho_f) V_b g (the rigid
+ * component adds the buoyancy), and the fluid's body force on its volume
+ * then accelerate the whole suspension without bound, and a "settling" body
+ * never reaches a terminal velocity (a sphere of density ratio 2, radius 4
+ * cells, in a periodic 24^3 box with gravity: 0.0035 m/s after 3000 steps
+ * and still rising by 0.00057 m/s per 600, against 0.00049 m/s with the
+ * balancing body force). A periodic suspension's weight is carried by the
+ * mean pressure gradient: the fluid's body force minus the net weight over
+ * the fluid's volume. A warning with that body force; a body's volume is
+ * the union of its spheres (lens_volume), and the tolerance of 1e-2 covers
+ * the rest (three spheres overlapping, the rounding of a hand-computed
+ * body force). */
 void scene_check_net_force(ctx_t *c, const scene_t *s)
 {
     double vbox = s->domain.size[0] * s->domain.size[1] * s->domain.size[2], vsph = 0.0, w[3] = {0, 0, 0}, wabs = 0.0;
