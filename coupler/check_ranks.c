@@ -22,23 +22,6 @@
  * one, and the extremes over all. */
 enum { CHECK_RANKS_ROWS = 16, CHECK_RANKS_HEAD = 8 };
 
-/* Forwards to the CLI's sink and counts the warnings. */
-typedef struct {
-    const log_t *parent;
-    int warnings;
-} counting_t;
-
-static void counting_log(void *ctx, status_t level, const char *category, const char *msg)
-{
-    counting_t *c = ctx;
-    if (level == STATUS_WARNING) {
-        c->warnings++;
-    }
-    if (c->parent != NULL && c->parent->fn != NULL) {
-        c->parent->fn(c->parent->ctx, level, category, msg);
-    }
-}
-
 static double value_bytes(const scene_t *s) { return s->fluid.precision == PRECISION_SINGLE ? 4.0 : 8.0; }
 
 /* Bytes of the fluid's populations and flags for a block of n cells. */
@@ -81,13 +64,10 @@ static void print_rank(const scene_t *s, const decomp_t *d)
     print_figures(&r);
 }
 
-status_t check_ranks(const scene_t *s, const int N[3], int world, const log_t *log, int *nwarnings)
+status_t check_ranks(const scene_t *s, const int N[3], int world, const log_t *log)
 {
-    counting_t count = {log, 0};
-    const log_t clog = {counting_log, &count};
     decomp_t d;
-    status_t st = decomp_layout(&d, s, N, world, 0, &clog);
-    *nwarnings += count.warnings;
+    status_t st = decomp_layout(&d, s, N, world, 0, log);
     if (st >= STATUS_ERROR) {
         return st;
     }

@@ -103,8 +103,8 @@ static void log_counted(void *ctx, status_t level, const char *category, const c
 
 /* The dt and tau lines of `check`: dt in whole nanoseconds (what masters that
  * count time in integer ns, libcosim/OSP, need; common/scene.h) and the tau
- * used against the one requested. Returns the number of warnings. */
-static int check_step_ns(const scene_t *s, const units_t *u, const log_t *log)
+ * used against the one requested; a warning when dt is not whole ns. */
+static void check_step_ns(const scene_t *s, const units_t *u, const log_t *log)
 {
     const scene_fluid_t *f = &s->fluid;
     long long ns;
@@ -122,7 +122,7 @@ static int check_step_ns(const scene_t *s, const units_t *u, const log_t *log)
         printf("  tau requested      %.9g (used as given)\n", f->tau_requested);
     }
     if (whole) {
-        return 0;
+        return;
     }
     if (f->tau_requested > 0.0) {
         log_msg(log, STATUS_WARNING, "step",
@@ -139,7 +139,6 @@ static int check_step_ns(const scene_t *s, const units_t *u, const log_t *log)
                 "%.0fe-9",
                 s->path, f->dt, f->dt * 1e9, fmax(1.0, nearbyint(f->dt * 1e9)));
     }
-    return 1;
 }
 
 /* `world` > 0: the blocks of that many MPI ranks too (check_ranks.h); MPI
@@ -201,7 +200,7 @@ static int cmd_check(const scene_t *s, int world, const log_t *log)
         if (world > 1 && mpi_env_init_alone() != 0) {
             return 1;
         }
-        if (check_ranks(s, u.n, world, log, &a.nwarnings) >= STATUS_ERROR) {
+        if (check_ranks(s, u.n, world, log) >= STATUS_ERROR) {
             return 1;
         }
     }
