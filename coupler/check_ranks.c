@@ -79,7 +79,7 @@ status_t check_ranks(const scene_t *s, const int N[3], int world, const log_t *l
     rank_row_t lo = {0}, hi = {0}, sum = {0};
     for (int r = 0; r < world; r++) {
         if (r > 0) {
-            st = decomp_layout(&d, s, N, world, r, &clog);
+            st = decomp_layout(&d, s, N, world, r, log);
             if (st >= STATUS_ERROR) {
                 return st; /* cannot happen: the layout's checks do not depend on the rank */
             }
