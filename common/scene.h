@@ -142,6 +142,7 @@ typedef struct {
     double rtol, atol;
     int substeps;
     double gravity[3]; /* m/s^2 */
+    double release_time; /* s: free bodies keep their initial motion and take no load until then (0: none) */
 } scene_rigid_t;
 
 typedef struct {

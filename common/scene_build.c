@@ -463,6 +463,8 @@ static void build_rigid(ctx_t *c, const raw_rigid_t *r, scene_rigid_t *g)
     double substeps = opt(r->substeps, 1.0);
     g->substeps = scene_check_int(c, "rigid.substeps", substeps, 1, INT_MAX) ? (int)substeps : 1;
     opt_vec(g->gravity, r->gravity, 0, 0, 0);
+    g->release_time = opt(r->release_time, 0.0);
+    scene_check_range(c, "rigid.release_time", g->release_time, 0, INFINITY, 0);
     scene_check_range(c, "rigid.rtol", g->rtol, 0, INFINITY, LO_OPEN);
     scene_check_range(c, "rigid.atol", g->atol, 0, INFINITY, LO_OPEN);
     scene_check_vec(c, "rigid.gravity", g->gravity, 3);

@@ -595,6 +595,28 @@ void scene_check_time_scales(ctx_t *c, const scene_t *s)
                           fmt_num(s->contacts.contact_time).s, fmt_num(s->contacts.contact_time / rigid_dt).s,
                           fmt_num(rigid_dt).s);
     }
+    if (s->rigid.release_time > 0) {
+        double rmax = 0.0;
+        for (int b = 0; b < s->nbodies; b++) {
+            for (int k = 0; k < s->bodies[b].nspheres && s->bodies[b].motion == MOTION_FREE; k++) {
+                rmax = fmax(rmax, s->bodies[b].spheres[k].radius);
+            }
+        }
+        const double tv = s->fluid.viscosity > 0 ? rmax * rmax / s->fluid.viscosity : 0.0;
+        if (rmax == 0.0) {
+            scene_report_warn(c, "rigid.release_time", "= %s s, but no body is free: nothing is held",
+                              fmt_num(s->rigid.release_time).s);
+        } else if (s->rigid.release_time >= s->run.end_time) {
+            scene_report_warn(c, "rigid.release_time",
+                              "= %s s is not before run.end_time = %s s: the free bodies are held for the whole run",
+                              fmt_num(s->rigid.release_time).s, fmt_num(s->run.end_time).s);
+        } else if (s->rigid.release_time < 0.1 * tv) {
+            scene_report_warn(c, "rigid.release_time",
+                              "= %s s is short of the time the flow around a sphere takes to form, r^2/nu = %s s "
+                              "(largest free sphere): part of the start-up load remains (README \"Release\")",
+                              fmt_num(s->rigid.release_time).s, fmt_num(tv).s);
+        }
+    }
 }
 
 /* The run is counted in fluid steps, ceil(run.end_time / fluid.dt) as

@@ -104,7 +104,7 @@ typedef struct {
     coupling_t *coupling;
     cvode_method_t *cvode_method;
     linsol_t *linear_solver;
-    double *rtol, *atol, *substeps;
+    double *rtol, *atol, *substeps, *release_time;
     double *gravity;
 } raw_rigid_t;
 

@@ -172,6 +172,7 @@ static const cyaml_schema_field_t RIGID_FIELDS[] = {
     CYAML_FIELD_FLOAT_PTR("rtol", OPT, raw_rigid_t, rtol),
     CYAML_FIELD_FLOAT_PTR("atol", OPT, raw_rigid_t, atol),
     CYAML_FIELD_FLOAT_PTR("substeps", OPT, raw_rigid_t, substeps),
+    CYAML_FIELD_FLOAT_PTR("release_time", OPT, raw_rigid_t, release_time),
     CYAML_FIELD_SEQUENCE_FIXED("gravity", OPT_PTR, raw_rigid_t, gravity, &SCHEMA_DOUBLE, 3),
     CYAML_FIELD_END,
 };

@@ -11,6 +11,8 @@
  *      (corrected first by the implicit coupling, implicit.c);
  *   3. forces at the new state; connection forces and torques (Eq. 8-9);
  *   4. break-up, then sticking; sections rebuilt if the topology changed.
+ * Before cfg.release_time the step is hold_step's instead: free bodies move
+ * on with their velocity and angular velocity, and no load acts.
  * The velocities reported after a step are therefore the predicted ones
  * (with the held load); step 1 of the next call corrects them. */
 #include "rigid_internal.h"
@@ -196,9 +198,11 @@ void rigid_get_sphere_applied_load(const rigid_t *r, int sphere, double force[3]
 {
     assert(r != NULL && sphere >= 0 && sphere < r->nspheres);
     const rigid_sphere_t *s = &r->spheres[sphere];
+    /* the last step was a hold (hold_step): nothing was applied */
+    const int held = r->h_prev > 0.0 && r->t - r->h_prev < r->cfg.release_time - 0.5 * r->h_prev;
     for (int a = 0; a < 3; a++) {
-        force[a] = s->load_f[a] + s->imp_f[a];
-        torque[a] = s->load_t[a] + s->imp_t[a];
+        force[a] = held ? 0.0 : s->load_f[a] + s->imp_f[a];
+        torque[a] = held ? 0.0 : s->load_t[a] + s->imp_t[a];
     }
 }
 
@@ -284,12 +288,74 @@ static void note_open_faces(rigid_t *r)
     }
 }
 
+/* A step before the release time (rigid_config_t.release_time): every free
+ * body translates with v and turns with its angular velocity w about the
+ * centre of mass, both kept constant (the rotation is exact: q turned by
+ * |w| h about w, and L = I_world w at the new attitude). No load acts and no
+ * load is held over for the step after, no implicit correction is made or
+ * owed, connections carry nothing and do not break, nothing sticks; the
+ * contact state is followed, and a deep overlap is a fault as in any step. */
+static status_t hold_step(rigid_t *r, double h)
+{
+    for (int b = 0; b < r->nbodies; b++) {
+        rigid_body_t *bd = &r->bodies[b];
+        if (bd->fixed) {
+            continue;
+        }
+        double w[3], iw[9];
+        rigid_body_omega(bd, w);
+        const double wn = rv_norm(w);
+        if (wn > 0.0) {
+            const double half = 0.5 * wn * h, s = sin(half) / wn;
+            const double dq[4] = {cos(half), s * w[0], s * w[1], s * w[2]};
+            double qn[4];
+            rq_mul(dq, bd->q, qn);
+            const double n = sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3]);
+            for (int k = 0; k < 4; k++) {
+                bd->q[k] = qn[k] / n;
+            }
+            rigid_body_inertia_world(bd, iw);
+            rm_mul(iw, w, bd->l);
+        }
+        for (int a = 0; a < 3; a++) {
+            bd->com[a] += h * bd->v[a];
+        }
+    }
+    for (int i = 0; i < r->nspheres; i++) {
+        rigid_sphere_t *s = &r->spheres[i];
+        memset(s->imp_f, 0, sizeof s->imp_f);
+        memset(s->imp_t, 0, sizeof s->imp_t);
+        memset(s->debt_f, 0, sizeof s->debt_f);
+        memset(s->debt_t, 0, sizeof s->debt_t);
+    }
+    r->have_prev = 0;
+    r->h_prev = h;
+    r->t += h;
+    int rc = rigid_forces(r, r->bodies, 0.0, NULL);
+    if (rc < 0) {
+        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "non-finite force at t=%.9g s after the step", r->t);
+    }
+    if (rc > 0) {
+        return rigid_fault_report(r, &r->fault, r->t);
+    }
+    for (int k = 0; k < r->nconn; k++) {
+        memset(r->conn[k].force, 0, sizeof r->conn[k].force);
+        memset(r->conn[k].torque, 0, sizeof r->conn[k].torque);
+    }
+    rigid_touch_update(r);
+    note_open_faces(r);
+    return STATUS_OK;
+}
+
 status_t rigid_step(rigid_t *r, double h)
 {
     assert(r != NULL);
     if (!(h > 0.0) || !isfinite(h)) {
         return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "step length %g s must be > 0 and finite (t=%.9g s)", h,
                        r->t);
+    }
+    if (r->t < r->cfg.release_time - 0.5 * h) {
+        return hold_step(r, h);
     }
     if (r->have_prev && r->cfg.load_correction) {
         load_correction(r);

@@ -101,6 +101,14 @@ typedef struct {
      * coupled rotation of a sphere of a few cells blow up; 0 (the default and
      * what scenes use): the load of a step is held over that step only. */
     int load_correction;
+    /* s, on the run's clock (not relative to t0): a step that starts before
+     * it moves every free body with its current velocity and angular
+     * velocity (kept constant) and applies no load to it (fluid, gravity,
+     * contacts, lubrication); its connections carry nothing and cannot break,
+     * nothing sticks. The fluid meanwhile develops around the bodies, so that
+     * a body put into a developed flow starts from the flow's steady load
+     * instead of the impulsive start's (README "Release"). 0: no hold. */
+    double release_time;
 } rigid_config_t;
 
 status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out);
@@ -154,7 +162,8 @@ void rigid_get_sphere(const rigid_t *r, int sphere, double pos[3], double vel[3]
 /* The hydrodynamic load that acted on the sphere over the last rigid_step:
  * the load set by rigid_set_sphere_load plus, under the implicit coupling,
  * its drag response to the step's predicted velocity change (what the
- * momentum balance of the step sees; without drag coefficients: the load). */
+ * momentum balance of the step sees; without drag coefficients: the load;
+ * zero for a step before rigid_config_t.release_time, which applies none). */
 void rigid_get_sphere_applied_load(const rigid_t *r, int sphere, double force[3], double torque[3]);
 int rigid_sphere_body(const rigid_t *r, int sphere);
 int rigid_nbodies(const rigid_t *r);

@@ -183,6 +183,9 @@ status_t rigid_config_validate(const rigid_config_t *c, const log_t *log)
     if (!isfinite(c->t0)) {
         return log_msg(log, STATUS_ERROR, RIGID_CAT, "t0 must be finite");
     }
+    if (!(c->release_time >= 0.0) || !isfinite(c->release_time)) {
+        return bad(log, "release_time %g must be >= %g and finite", c->release_time, 0.0);
+    }
     return STATUS_OK;
 }
 

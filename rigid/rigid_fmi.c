@@ -18,9 +18,10 @@
  *               (kg.m2/s), only when rigid.coupling = implicit (start 0)
  *   outputs     sphere[i].position|velocity|angular_velocity.x|y|z,
  *               sphere[i].applied_force|applied_torque.x|y|z (implicit
- *               coupling only: the hydrodynamic load that acted over the last
- *               step, the input plus its drag response to the step's velocity
- *               change; what the master records as the sphere's load)
+ *               coupling or a rigid.release_time only: the hydrodynamic load
+ *               that acted over the last step, the input plus its drag
+ *               response to the step's velocity change, zero while held;
+ *               what the master records as the sphere's load)
  *               sphere[i].body (Integer: the current body id; ids start as
  *               the scene body index and change when bodies split or merge)
  *               connection[k].force|torque.x|y|z, connection[k].intact
@@ -163,7 +164,7 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
                                  "angular velocity", log))) {
                 goto done;
             }
-            if (coupling_of_body(s, b).coupling == COUPLING_IMPLICIT &&
+            if ((coupling_of_body(s, b).coupling == COUPLING_IMPLICIT || s->rigid.release_time > 0.0) &&
                 ((st = add_vector(&vs, FMI_OUTPUT, Q_APPLIED_FORCE, "sphere", i, "applied_force", "N",
                                   "hydrodynamic force over the last step, implicit correction included", log)) ||
                  (st = add_vector(&vs, FMI_OUTPUT, Q_APPLIED_TORQUE, "sphere", i, "applied_torque", "N.m",

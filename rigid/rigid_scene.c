@@ -92,6 +92,7 @@ status_t rigid_config_from_scene(const scene_t *s, double t0, const log_t *log, 
         .atol = s->rigid.atol,
         .substeps = s->rigid.substeps,
         .t0 = t0,
+        .release_time = s->rigid.release_time,
     };
     for (int a = 0; a < 3; a++) {
         cfg->gravity[a] = s->rigid.gravity[a];

@@ -10,6 +10,8 @@ files with a few `--set` overrides:
   - the break-up runs 40 steps from a developed shear with necks of 2e-7 N, output every
     step: it breaks, the body ids follow the intact connections, no intact neck carries more
     than its limit, and the balance holds across each break;
+  - the same break-up held for 100 steps (rigid.release_time) while the developed shear
+    forms around it keeps necks that the impulsive start breaks;
   - agglomerate_16 and three_agglomerates run a few hundred / a few dozen steps: finite,
     whole, turning with the shear, fluid mass within the bound, and the momentum of the
     bodies changes by exactly the hydrodynamic impulse in every step.
@@ -189,6 +191,41 @@ def test_breakup_shear_short_breaks_and_balances(coupler, tmp_path):
         assert fn > float(c["max_normal"]) or fs > float(c["max_shear"]), (k, fn, fs)
         assert np.all(d["cforce"][kb + 1:, k] == 0.0) and np.all(d["ctorque"][kb + 1:, k] == 0.0)
     assert 0 < nbroken < len(d["scene"]["connections"])               # a partial break-up
+    _all_steps_balance(d)
+
+
+# Release (rigid.release_time, README "Release"): held at rest for 100 steps (0.025 s, 0.4 of
+# the viscous time r^2/nu of a sphere) while the developed shear forms around it, the same
+# agglomerate starts from the flow's load: necks up to 3.2e-8 N after the release (measured),
+# against 1.7e-7 N in the first step and 1.86e-7 N in the second without the hold.
+RELEASE_STEPS = 100
+RELEASE_LIMIT = 6e-8
+
+
+def test_breakup_shear_released_into_developed_shear_keeps_its_necks(coupler, tmp_path):
+    sc = yaml.safe_load((MODELS / "breakup_shear.yaml").read_text())
+    fl = {k: float(sc["fluid"][k]) for k in ("dx", "tau", "viscosity")}   # PyYAML reads 5e-05 as text
+    h = fl["dx"] ** 2 * (fl["tau"] - 0.5) / 3 / fl["viscosity"]
+    # without the hold the impulsive start breaks necks of this limit at once
+    out = _run(tmp_path, "breakup_shear", "--steps", "3", *EVERY_STEP, *breakup_overrides(RELEASE_LIMIT))
+    assert ca.read(out)["nbodies"][-1] > 1
+    release = ("--set", f"rigid.release_time={RELEASE_STEPS * h!r}")
+    out = _run(tmp_path, "breakup_shear", "--steps", str(RELEASE_STEPS + 30), *EVERY_STEP, *release,
+               *breakup_overrides(RELEASE_LIMIT))
+    d = ca.read(out)
+    _sanity(d, "breakup_shear")
+    # a row per step: row k after step k; steps 1 .. RELEASE_STEPS start before the release
+    assert abs(d["t"][RELEASE_STEPS] - RELEASE_STEPS * h) < 1e-9 * h * RELEASE_STEPS
+    held, after = slice(1, RELEASE_STEPS + 1), slice(RELEASE_STEPS + 1, None)
+    # held: at rest where the scene put it, nothing acts, the necks carry nothing
+    assert np.all(d["position"][held] == d["position"][0])
+    assert np.all(d["velocity"][held] == 0.0) and np.all(d["angular_velocity"][held] == 0.0)
+    assert np.all(d["force"][held] == 0.0) and np.all(d["cforce"][held] == 0.0)
+    # released: loaded from the next step on, whole, every neck well below the impulsive start's
+    fc = np.linalg.norm(d["cforce"][after], axis=2)
+    assert np.max(np.abs(d["force"][RELEASE_STEPS + 1])) > 0
+    assert np.all(d["nbodies"] == 1) and np.all(d["intact"] == 1)
+    assert 0 < fc.max() < RELEASE_LIMIT, fc.max()
     _all_steps_balance(d)
 
 

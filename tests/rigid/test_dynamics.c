@@ -14,7 +14,14 @@
  * Linear drag: m v' = -c v has v = v0 exp(-c t / m). The drag is applied as
  * the hydrodynamic load computed from the velocity reported after each step,
  * as the fluid would; the coupling is second order (trapezoidal correction),
- * so the error must fall by ~4 when the step halves. */
+ * so the error must fall by ~4 when the step halves.
+ *
+ * Release (rigid_config_t.release_time): before it a body moves with its
+ * initial velocity and angular velocity, both constant, whatever acts on it:
+ * the sphere centres follow x0 + v t and the exact rotation exp(w t) about
+ * the centre of mass (Rodrigues' formula), which torque-free motion of the
+ * asymmetric top would not (its w turns); connections carry nothing and do
+ * not break. The first step after it is an ordinary step with the load. */
 #include "test_rigid_util.h"
 
 /* The top: a central sphere with two pairs of touching arms of different size. */
@@ -261,6 +268,93 @@ static void test_drag_cvode(void)
     CU_ASSERT(ea / ec2 > 3.6 && ea / ec2 < 4.4);
 }
 
+/* d rotated by the angle |w| t about w (Rodrigues). */
+static void rodrigues(const double w[3], double t, const double d[3], double out[3])
+{
+    const double wn = vec_norm(w), th = wn * t, k[3] = {w[0] / wn, w[1] / wn, w[2] / wn};
+    const double kd = k[0] * d[0] + k[1] * d[1] + k[2] * d[2];
+    const double kx[3] = {k[1] * d[2] - k[2] * d[1], k[2] * d[0] - k[0] * d[2], k[0] * d[1] - k[1] * d[0]};
+    for (int a = 0; a < 3; a++) {
+        out[a] = d[a] * cos(th) + kx[a] * sin(th) + k[a] * kd * (1.0 - cos(th));
+    }
+}
+
+static void run_release(rigid_integrator_t integ)
+{
+    const double w0[3] = {0.4, 1.0, 0.3}, v0[3] = {0.1, -0.2, 0.05}, h = 0.01;
+    rigid_body_cfg_t b = {1.0, {v0[0], v0[1], v0[2]}, {w0[0], w0[1], w0[2]}, 0};
+    /* every arm joined to the centre by a neck far weaker than the loads */
+    const rigid_connection_cfg_t c[4] = {
+        {0, 1, 1e-9, 1e-9, 0}, {0, 2, 1e-9, 1e-9, 0}, {0, 3, 1e-9, 1e-9, 0}, {0, 4, 1e-9, 1e-9, 0}};
+    rigid_config_t cfg = test_cfg(5, top_spheres, 1, &b, 4, c);
+    cfg.integrator = integ;
+    cfg.gravity[2] = -9.81;
+    cfg.release_time = 10 * h; /* ten steps held; the clock reaches it with round-off */
+    rigid_t *r = NULL;
+    CU_ASSERT_FATAL(rigid_create(&cfg, NULL, &r) == STATUS_OK);
+    double x0[5][3], com0[3], q[4], v[3], w[3], mass, iw[9];
+    rigid_get_body(r, 0, com0, q, v, w, &mass, iw);
+    for (int i = 0; i < 5; i++) {
+        rigid_get_sphere(r, i, x0[i], NULL, NULL);
+    }
+    const double f[3] = {3.0, -1.0, 2.0}, tq[3] = {0.5, 0.2, -0.7};
+    double err_x = 0.0, err_w = 0.0, err_v = 0.0, fc = 0.0, fa = 0.0;
+    int intact_all = 1;
+    for (int n = 1; n <= 10; n++) {
+        for (int i = 0; i < 5; i++) {
+            rigid_set_sphere_load(r, i, f, tq);
+        }
+        CU_ASSERT_FATAL(rigid_step(r, h) == STATUS_OK);
+        const double t = rigid_time(r);
+        double com[3];
+        rigid_get_body(r, 0, com, q, v, w, &mass, iw);
+        for (int a = 0; a < 3; a++) {
+            err_v = fmax(err_v, fabs(v[a] - v0[a]));
+            err_w = fmax(err_w, fabs(w[a] - w0[a]));
+        }
+        for (int i = 0; i < 5; i++) {
+            double x[3], d0[3], d[3], ft[3], tt[3];
+            rigid_get_sphere(r, i, x, NULL, NULL);
+            for (int a = 0; a < 3; a++) {
+                d0[a] = x0[i][a] - com0[a];
+            }
+            rodrigues(w0, t, d0, d);
+            for (int a = 0; a < 3; a++) {
+                err_x = fmax(err_x, fabs(x[a] - (com0[a] + v0[a] * t + d[a])));
+            }
+            rigid_get_sphere_applied_load(r, i, ft, tt);
+            fa = fmax(fa, fmax(vec_norm(ft), vec_norm(tt)));
+        }
+        for (int k = 0; k < 4; k++) {
+            double cf[3], ct[3];
+            int intact;
+            rigid_get_connection(r, k, cf, ct, &intact);
+            fc = fmax(fc, fmax(vec_norm(cf), vec_norm(ct)));
+            intact_all &= intact;
+        }
+    }
+    CU_ASSERT(err_x < 1e-12);
+    CU_ASSERT(err_v == 0.0);
+    CU_ASSERT(err_w < 1e-12);
+    CU_ASSERT(fc == 0.0 && fa == 0.0);
+    CU_ASSERT(intact_all && rigid_nbodies(r) == 1);
+    /* the step after the release: the load and gravity act, the necks break */
+    for (int i = 0; i < 5; i++) {
+        rigid_set_sphere_load(r, i, f, tq);
+    }
+    CU_ASSERT_FATAL(rigid_step(r, h) == STATUS_OK);
+    double pm[3], lm[3];
+    rigid_momentum(r, pm, lm);
+    const double pz = mass * (v0[2] - 9.81 * h) + 5 * h * f[2];
+    CU_ASSERT(fabs(pm[0] - (mass * v0[0] + 5 * h * f[0])) < 1e-9 * mass);
+    CU_ASSERT(fabs(pm[2] - pz) < 1e-9 * mass);
+    CU_ASSERT(rigid_nbodies(r) == 5);
+    rigid_free(r);
+}
+
+static void test_release_verlet(void) { run_release(RIGID_VERLET); }
+static void test_release_cvode(void) { run_release(RIGID_CVODE); }
+
 void test_dynamics_register(void)
 {
     CU_pSuite s = CU_add_suite("rigid_dynamics", NULL, NULL);
@@ -270,4 +364,6 @@ void test_dynamics_register(void)
     CU_add_test(s, "intermediate-axis flip period (CVODE) vs 4K(k)/nu", test_top_flip_cvode);
     CU_add_test(s, "linear drag: Verlet second order", test_drag_verlet_order);
     CU_add_test(s, "linear drag: CVODE within tolerance", test_drag_cvode);
+    CU_add_test(s, "release time: held motion exact, no load, no break; then the load (Verlet)", test_release_verlet);
+    CU_add_test(s, "release time: the same with CVODE", test_release_cvode);
 }
