@@ -241,7 +241,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                  fmuGUID != NULL ? fmuGUID : "(null)", in->guid);
         goto fail;
     }
-    if (scene_load(in->scene_path, NULL, 0, &in->log, &in->base) >= STATUS_ERROR) {
+    const log_t errors_only = {fmi_native_log_errors, in};
+    if (scene_load(in->scene_path, NULL, 0, &errors_only, &in->base) >= STATUS_ERROR) {
         fmi_fail(in, fn, "the scene %s cannot be read (see the messages above)", in->scene_path);
         goto fail;
     }

@@ -73,6 +73,16 @@ void fmi_native_log(void *ctx, status_t level, const char *category, const char 
     emit(ctx, level, level_category(level), buf);
 }
 
+/* The same for the scene's first reading at instantiation: its errors only.
+ * Its warnings come once, from the reading with the parameters applied in
+ * fmi2ExitInitializationMode (they would otherwise be logged twice). */
+void fmi_native_log_errors(void *ctx, status_t level, const char *category, const char *msg)
+{
+    if (level >= STATUS_ERROR) {
+        fmi_native_log(ctx, level, category, msg);
+    }
+}
+
 static fmi2Status vreport(const inst_t *in, status_t level, const char *fn, const char *fmt, va_list ap)
 {
     char msg[2500], buf[2700];

@@ -127,6 +127,7 @@ void fmi_states_free(inst_t *in);
  * category; errors always, other messages as fmi2SetDebugLogging asks.
  * The native components' log_t sink: ctx is the instance. */
 void fmi_native_log(void *ctx, status_t level, const char *category, const char *msg);
+void fmi_native_log_errors(void *ctx, status_t level, const char *category, const char *msg);
 /* "fn: message" as an error; returns fmi2Error. */
 __attribute__((format(printf, 3, 4))) fmi2Status fmi_fail(const inst_t *in, const char *fn, const char *fmt, ...);
 /* "fn: message" at level; returns it as an fmi2Status. */

@@ -304,6 +304,12 @@ static void fmi_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2St
                            : status == fmi2Discard ? STATUS_DISCARD
                            : status == fmi2Error   ? STATUS_ERROR
                                                    : STATUS_FATAL;
+    /* the scene's warnings: the master has read the same scene with the
+     * same overrides and reported them already (an FMU of another scene is
+     * refused) */
+    if (level == STATUS_WARNING && strncmp(buf, "[scene] ", 8) == 0) {
+        return;
+    }
     log_msg(&f->log, level, f->label, "%s [%s] %s", instance != NULL ? instance : "-",
             category != NULL ? category : "-", buf);
 }

@@ -262,6 +262,15 @@ def test_tiny_intervals_do_not_hang(coupler, tmp_path):
     assert p.returncode == 1 and "--checkpoint-every 1e-30 s is shorter than one communication step" in p.stderr
 
 
+def test_a_scene_warning_is_printed_once(coupler, tmp_path):
+    # the master reads the scene, and each FMU read it at instantiation and again with its
+    # parameters: the same warning came five times (twice from each FMU). Now the master's, once.
+    p = run("run", MODELS / "sinking_sphere.yaml", "-o", tmp_path / "w.h5", "--steps", "2", "--quiet",
+            "--set", "run.output_interval=1e-30")
+    assert p.returncode == 0, p.stderr
+    assert p.stderr.count("is shorter than one fluid step") == 1, p.stderr
+
+
 @pytest.mark.parametrize("held", ["output", "fields"])
 def test_output_held_open_elsewhere_is_left_as_it_is(coupler, tmp_path, held):
     # HDF5's create (H5F_ACC_TRUNC) empties a file before it finds that another process holds

@@ -420,6 +420,20 @@ def test_illegal_calls_are_errors_not_crashes(fmus, tmp_path):
     s.close()
 
 
+def test_scene_warnings_are_logged_once(fmus, tmp_path):
+    # the scene (3 cells per radius) draws warnings. The FMU reads it at instantiation and again
+    # with the parameters applied in fmi2ExitInitializationMode: each warning was logged twice.
+    # Now the first reading logs only errors.
+    for name in ("fluid", "rigid"):
+        s = Slave(fmus["free"] / f"{name}.fmu", tmp_path, name=f"w_{name}")
+        assert not [m for m in s.messages if m[0] == 1], s.messages
+        s.init()
+        warnings = [m[2] for m in s.messages if m[0] == 1]
+        assert warnings and any("[scene]" in w for w in warnings), s.messages
+        assert len(set(warnings)) == len(warnings), warnings
+        s.close()
+
+
 # Run in its own process: on a handle that is not a live instance the old
 # layer read and freed freed memory, which may crash the interpreter.
 STALE_HANDLES = r"""
