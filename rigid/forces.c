@@ -11,10 +11,60 @@
  * get zero. The body array may be a scratch copy (CVODE). */
 #include "rigid_internal.h"
 
+#include <math.h>
 #include <string.h>
+
+/* A kinematic body's velocity at the world point x: kv + kw x (x - kp). */
+static void kinematic_velocity(const rigid_body_t *b, const double x[3], double v[3])
+{
+    double d[3], u[3];
+    rv_sub(x, b->kp, d);
+    rv_cross(b->kw, d, u);
+    for (int k = 0; k < 3; k++) {
+        v[k] = b->kv[k] + u[k];
+    }
+}
+
+void rigid_kinematic_advance(rigid_t *r, double h)
+{
+    for (int bi = 0; bi < r->nbodies; bi++) {
+        rigid_body_t *b = &r->bodies[bi];
+        if (!b->kinematic) {
+            continue;
+        }
+        double d[3];
+        rv_sub(b->com, b->kp, d);
+        const double wn = rv_norm(b->kw);
+        if (wn > 0.0) {
+            const double half = 0.5 * wn * h, sn = sin(half) / wn;
+            const double dq[4] = {cos(half), sn * b->kw[0], sn * b->kw[1], sn * b->kw[2]};
+            double qn[4], m[9], dn[3];
+            rq_mul(dq, b->q, qn);
+            const double n = sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3]);
+            for (int k = 0; k < 4; k++) {
+                b->q[k] = qn[k] / n;
+            }
+            rq_matrix(dq, m);
+            rm_mul(m, d, dn);
+            memcpy(d, dn, sizeof d);
+        }
+        for (int a = 0; a < 3; a++) {
+            b->kp[a] += h * b->kv[a];
+            b->com[a] = b->kp[a] + d[a];
+        }
+    }
+}
 
 void rigid_body_point_velocity(const rigid_body_t *b, const double a[3], double v[3])
 {
+    if (b->kinematic) {
+        double x[3];
+        for (int k = 0; k < 3; k++) {
+            x[k] = b->com[k] + a[k];
+        }
+        kinematic_velocity(b, x, v);
+        return;
+    }
     if (b->fixed) {
         v[0] = v[1] = v[2] = 0.0;
         return;
@@ -34,7 +84,9 @@ void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, dou
     double m[9], d[3], om[3];
     rq_matrix(b->q, m);
     rm_mul(m, s->p, d);
-    if (b->fixed) {
+    if (b->kinematic) {
+        memcpy(om, b->kw, sizeof om);
+    } else if (b->fixed) {
         om[0] = om[1] = om[2] = 0.0;
     } else {
         rigid_body_omega(b, om);
@@ -44,7 +96,13 @@ void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, dou
             x[a] = b->com[a] + d[a];
         }
     }
-    if (v != NULL) {
+    if (v != NULL && b->kinematic) {
+        double xw[3];
+        for (int a = 0; a < 3; a++) {
+            xw[a] = b->com[a] + d[a];
+        }
+        kinematic_velocity(b, xw, v);
+    } else if (v != NULL) {
         double u[3];
         rv_cross(om, d, u);
         for (int a = 0; a < 3; a++) {

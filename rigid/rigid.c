@@ -139,6 +139,26 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
         rigid_body_build(r, b, members, nm, c, s, j);
         rigid_body_t *bd = &r->bodies[b];
         bd->fixed = bc->fixed != 0;
+        bd->kinematic = bc->fixed == RIGID_PRESCRIBED;
+        memset(bd->kv, 0, sizeof bd->kv);
+        memset(bd->kw, 0, sizeof bd->kw);
+        memset(bd->kp, 0, sizeof bd->kp);
+        if (bd->kinematic) {
+            /* the fluid's pivot: the r^3-weighted centroid of the sphere centres */
+            double w = 0.0;
+            for (int k = 0; k < nm; k++) {
+                const double r3 = rad[k] * rad[k] * rad[k];
+                for (int a = 0; a < 3; a++) {
+                    bd->kp[a] += r3 * c[k][a];
+                }
+                w += r3;
+            }
+            for (int a = 0; a < 3; a++) {
+                bd->kp[a] /= w;
+            }
+            memcpy(bd->kv, bc->velocity, sizeof bd->kv);
+            memcpy(bd->kw, bc->angular_velocity, sizeof bd->kw);
+        }
         if (!bd->fixed) {
             double iw[9];
             memcpy(bd->v, bc->velocity, sizeof bd->v);
@@ -297,6 +317,7 @@ static void note_open_faces(rigid_t *r)
  * contact state is followed, and a deep overlap is a fault as in any step. */
 static status_t hold_step(rigid_t *r, double h)
 {
+    rigid_kinematic_advance(r, h);
     for (int b = 0; b < r->nbodies; b++) {
         rigid_body_t *bd = &r->bodies[b];
         if (bd->fixed) {
@@ -364,7 +385,10 @@ status_t rigid_step(rigid_t *r, double h)
     if (st != STATUS_OK) {
         return st;
     }
+    /* prescribed bodies sit at the step's midpoint while the free ones move */
+    rigid_kinematic_advance(r, 0.5 * h);
     st = r->ops->advance(r, r->integ, h);
+    rigid_kinematic_advance(r, 0.5 * h);
     if (st != STATUS_OK) {
         return st;
     }

@@ -41,8 +41,13 @@ typedef struct {
 } rigid_sphere_cfg_t;
 
 /* A body: density (kg/m^3) > 0, initial velocity of its centre of mass (m/s)
- * and angular velocity (rad/s). fixed != 0: the body never moves (infinite
- * mass for contacts; prescribed motion belongs to the fluid side). */
+ * and angular velocity (rad/s). fixed != 0: the body is not moved by forces
+ * (infinite mass for contacts); it never moves, unless fixed ==
+ * RIGID_PRESCRIBED: then it moves as the fluid moves a prescribed body, its
+ * spheres' r^3-weighted centroid with `velocity` and the body turning about
+ * that centroid with `angular_velocity`, both constant, so that contacts and
+ * films meet it where the fluid has it. */
+#define RIGID_PRESCRIBED 2
 typedef struct {
     double density;
     double velocity[3];

@@ -6,8 +6,8 @@
  *
  * What the FMU covers: the rigid component is built from every body of the
  * scene; fixed and prescribed bodies enter as fixed bodies (obstacles for
- * contacts: prescribed motion belongs to the fluid, so the rigid side sees a
- * prescribed body where it starts). Only spheres of free bodies have
+ * contacts; a prescribed body moves there with its prescribed motion, as the
+ * fluid moves it, rigid_scene.c). Only spheres of free bodies have
  * variables. Variables (SI, structured names, global sphere index i: bodies
  * in scene order, their spheres in order; k: index in the scene's
  * connections list):

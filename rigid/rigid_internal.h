@@ -50,6 +50,8 @@ typedef struct {
     double mass;
     double inertia[3]; /* principal moments */
     int fixed;
+    int kinematic;     /* a fixed body with prescribed motion (rigid_kinematic_advance) */
+    double kv[3], kw[3], kp[3]; /* its pivot's velocity, its angular velocity, its pivot (world) */
 } rigid_body_t;
 
 typedef struct {
@@ -235,8 +237,12 @@ int rigid_forces(rigid_t *r, const rigid_body_t *bodies, double h_kick, rigid_co
 /* The h_kick of the integrator for a communication step of length h. */
 double rigid_lub_kick(const rigid_t *r, double h);
 void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, double x[3], double v[3], double w[3]);
-/* Velocity of the material of body b at arm a from its centre of mass (zero for a fixed body). */
+/* Velocity of the material of body b at arm a from its centre of mass (zero for a fixed body,
+ * the prescribed motion's for a kinematic one). */
 void rigid_body_point_velocity(const rigid_body_t *b, const double a[3], double v[3]);
+/* Moves the kinematic (prescribed) bodies on by h: the pivot with kv, the body turned
+ * exactly by kw h about it. */
+void rigid_kinematic_advance(rigid_t *r, double h);
 /* contact.c: adds contact forces to r->sf/st; x: sphere centres */
 int rigid_contacts(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], rigid_contact_info_t *worst);
 /* The error message of a fault found at time t (names body, sphere, partner or face, gap). */

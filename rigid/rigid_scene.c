@@ -3,8 +3,10 @@
  * One place maps the scene struct (common/scene.h) to the rigid component's
  * configuration, so that the FMU (rigid_fmi.c) and any other user build the
  * same bodies. Every body of the scene enters: free bodies move, fixed and
- * prescribed bodies enter as fixed bodies (obstacles for contacts; prescribed
- * motion belongs to the fluid). Sphere i is the scene's global sphere index
+ * prescribed bodies enter as fixed bodies (obstacles for contacts, infinite
+ * mass), a prescribed one moving with its prescribed motion as the fluid moves
+ * it (before, it stayed where it started: a free sphere met its film there,
+ * and passed through the body itself). Sphere i is the scene's global sphere index
  * (bodies in order, their spheres in order), its body the scene body index.
  * Every non-periodic face is a wall for contacts (with its kind and, for a
  * moving wall, its velocity); periodic axes pair spheres at the nearest
@@ -47,10 +49,12 @@ status_t rigid_config_from_scene(const scene_t *s, double t0, const log_t *log, 
     for (int b = 0, i = 0; b < s->nbodies; b++) {
         const scene_body_t *body = &s->bodies[b];
         bd[b].density = body->density;
-        bd[b].fixed = body->motion != MOTION_FREE;
+        /* a prescribed body moves as the fluid moves it */
+        bd[b].fixed = body->motion == MOTION_FREE ? 0 : body->motion == MOTION_PRESCRIBED ? RIGID_PRESCRIBED : 1;
         for (int a = 0; a < 3; a++) {
-            bd[b].velocity[a] = bd[b].fixed ? 0.0 : body->velocity[a];
-            bd[b].angular_velocity[a] = bd[b].fixed ? 0.0 : body->angular_velocity[a];
+            const int moves = body->motion != MOTION_FIXED;
+            bd[b].velocity[a] = moves ? body->velocity[a] : 0.0;
+            bd[b].angular_velocity[a] = moves ? body->angular_velocity[a] : 0.0;
         }
         for (int k = 0; k < body->nspheres; k++, i++) {
             for (int a = 0; a < 3; a++) {

@@ -29,7 +29,7 @@
 #include <string.h>
 
 #define RIGID_STATE_MAGIC 0x52494744u /* "RIGD" */
-#define RIGID_STATE_VERSION 2u /* 2: the implicit coupling's debt_f, debt_t */
+#define RIGID_STATE_VERSION 3u /* 2: the implicit coupling's debt_f, debt_t; 3: prescribed bodies' motion */
 
 static size_t state_bytes(int ns, int nb, int nc)
 {
@@ -156,6 +156,14 @@ static status_t check_body(const rigid_t *r, int b, const rigid_body_t *bd, doub
     }
     if (bd->fixed != 0 && bd->fixed != 1) {
         return corrupt(r, "body %d: fixed = %d; allowed: 0 or 1", b, bd->fixed);
+    }
+    if (bd->kinematic != 0 && bd->kinematic != bd->fixed) {
+        return corrupt(r, "body %d: kinematic = %d; allowed: 0, or 1 for a fixed body", b, bd->kinematic);
+    }
+    for (int a = 0; a < 3; a++) {
+        if (!isfinite(bd->kv[a]) || !isfinite(bd->kw[a]) || !isfinite(bd->kp[a])) {
+            return corrupt(r, "body %d: prescribed motion not finite", b);
+        }
     }
     return STATUS_OK;
 }

@@ -170,6 +170,10 @@ status_t rigid_regroup(rigid_t *r, int bi)
         rigid_body_build(r, id, sub.members, k, sub.p, sub.s, sub.j);
         rigid_body_t *nb = &r->bodies[id];
         nb->fixed = old.fixed;
+        nb->kinematic = old.kinematic; /* a prescribed body's pieces keep its motion */
+        memcpy(nb->kv, old.kv, sizeof nb->kv);
+        memcpy(nb->kw, old.kw, sizeof nb->kw);
+        memcpy(nb->kp, old.kp, sizeof nb->kp);
         double rr[3], u[3], iw[9];
         rv_sub(nb->com, old.com, rr);
         rv_cross(w0, rr, u);
@@ -289,6 +293,12 @@ static status_t fuse(rigid_t *r, int A, int B)
     rigid_body_build(r, A, w.members, nm, w.p, w.s, w.j);
     rigid_body_t *nb = &r->bodies[A];
     nb->fixed = fixed;
+    /* stuck to a prescribed body: the fused body moves as it does */
+    const rigid_body_t *kin = ba.kinematic ? &ba : bb.kinematic ? &bb : NULL;
+    nb->kinematic = kin != NULL;
+    memcpy(nb->kv, kin ? kin->kv : (const double[3]){0, 0, 0}, sizeof nb->kv);
+    memcpy(nb->kw, kin ? kin->kw : (const double[3]){0, 0, 0}, sizeof nb->kw);
+    memcpy(nb->kp, kin ? kin->kp : (const double[3]){0, 0, 0}, sizeof nb->kp);
     if (fixed) {
         memset(nb->v, 0, sizeof nb->v);
         memset(nb->l, 0, sizeof nb->l);
