@@ -204,6 +204,16 @@ cleanup:
     return STATUS_OK;
 }
 
+/* Whether the step of length h from t is a hold (rigid_config_t.release_time):
+ * one whose middle is before the release time. A release time of 0 (the
+ * default) holds nothing, also on a clock that starts before 0 (an FMI master's
+ * negative startTime: every step before t = 0 was held, without load or
+ * gravity and without a word). */
+static int held_step(const rigid_t *r, double t, double h)
+{
+    return r->cfg.release_time > 0.0 && t < r->cfg.release_time - 0.5 * h;
+}
+
 void rigid_set_sphere_load(rigid_t *r, int sphere, const double force[3], const double torque[3])
 {
     assert(r != NULL && sphere >= 0 && sphere < r->nspheres);
@@ -219,7 +229,7 @@ void rigid_get_sphere_applied_load(const rigid_t *r, int sphere, double force[3]
     assert(r != NULL && sphere >= 0 && sphere < r->nspheres);
     const rigid_sphere_t *s = &r->spheres[sphere];
     /* the last step was a hold (hold_step): nothing was applied */
-    const int held = r->h_prev > 0.0 && r->t - r->h_prev < r->cfg.release_time - 0.5 * r->h_prev;
+    const int held = r->h_prev > 0.0 && held_step(r, r->t - r->h_prev, r->h_prev);
     for (int a = 0; a < 3; a++) {
         force[a] = held ? 0.0 : s->load_f[a] + s->imp_f[a];
         torque[a] = held ? 0.0 : s->load_t[a] + s->imp_t[a];
@@ -375,7 +385,7 @@ status_t rigid_step(rigid_t *r, double h)
         return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "step length %g s must be > 0 and finite (t=%.9g s)", h,
                        r->t);
     }
-    if (r->t < r->cfg.release_time - 0.5 * h) {
+    if (held_step(r, r->t, h)) {
         return hold_step(r, h);
     }
     if (r->have_prev && r->cfg.load_correction) {

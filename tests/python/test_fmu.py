@@ -316,6 +316,35 @@ def test_rigid_alone_falls_freely(fmus, which):
                                rtol=1e-6, atol=1e-15)
 
 
+@pytest.mark.parametrize("which", ["free", "cvode"])
+def test_rigid_with_a_negative_start_time_falls_from_its_first_step(fmus, tmp_path, which):
+    """FMI lets a master start at any time. A rigid.release_time of 0 (the default) holds nothing,
+    but the hold was `t < release_time - h/2` on the FMU's clock: from startTime -5e-5 s the body
+    hung for 5 steps without gravity or load (z and v unchanged, and the fluid's load dropped
+    without a word). Now it falls from the first step as from 0. With a release time the hold
+    still lasts until that time of the run's clock (README "Release")."""
+    t0, n = -5 * DT, 10
+    r = fmpy.simulate_fmu(str(fmus[which] / "rigid.fmu"), start_time=t0, stop_time=t0 + n * DT, step_size=DT,
+                          output_interval=DT, start_values={"rigid.rtol": 1e-12} if which == "cvode" else {})
+    a = G * (1 - RHO_F / RHO_P)
+    np.testing.assert_allclose(r["sphere[0].velocity.z"], -a * (r["time"] - t0), rtol=1e-9, atol=1e-15)
+    d, _ = export(tmp_path, "held", SCENE.format(motion=""), "rigid.release_time=2e-5", "rigid.coupling=explicit",
+                  f"rigid.integrator={'cvode' if which == 'cvode' else 'verlet'}")
+    s = Slave(d / "rigid.fmu", tmp_path)
+    s.fmu.setupExperiment(startTime=t0)
+    s.fmu.enterInitializationMode()
+    s.fmu.exitInitializationMode()
+    v, held = [], []
+    for k in range(n):
+        s.fmu.setReal([s.vr["sphere[0].force.z"]], [1e-9])
+        s.fmu.doStep(t0 + k * DT, DT)
+        v.append(s.fmu.getReal([s.vr["sphere[0].velocity.z"]])[0])
+        held.append(s.fmu.getReal([s.vr["sphere[0].applied_force.z"]])[0] == 0.0)
+    # the steps from -5e-5 to 2e-5 s are held: 7 of them, zero load, at rest; the 8th moves
+    assert held == [True] * 7 + [False] * 3 and v[:7] == [0.0] * 7 and v[7] != 0.0
+    s.close()
+
+
 def test_fluid_fmu_runs_its_own_default_experiment(tmp_path):
     """fmpy.simulate_fmu with nothing but the FMU: its DefaultExperiment's stop is run.end_time
     rounded up to whole LBM steps (2.05e-4 s is 20.5 steps: 21), so the last step is a whole
