@@ -361,6 +361,9 @@ fmi2Status fmi2Reset(fmi2Component c)
     fmi_drop_component(in);
     for (int j = 0; j < in->vars.n; j++) {
         in->values[j] = in->vars.v[j].start;
+        if (in->strings[j] != NULL) {
+            in->strings[j][0] = '\0'; /* a String's start value "" (kept: output.fields went on being written) */
+        }
     }
     in->t = in->t_start = 0.0;
     in->has_stop = 0;

@@ -820,3 +820,36 @@ def test_fields_string_parameter_and_lazy_totals(coupler, tmp_path):
     assert "output.fields" in v
     _, v = variables(export(tmp_path, "nofields", SCENE.format(motion=""))[0] / "fluid.fmu")
     assert "output.fields" not in v
+
+
+def test_reset_gives_string_parameters_their_start_value(coupler, tmp_path):
+    """fmi2Reset puts every variable back to its start value (FMI 2.0: as after fmi2Instantiate),
+    the String parameters too. output.fields kept the file of the run before the reset, so the next
+    run, which did not set it, wrote its snapshots over that run's file (its mtime changed, its
+    snapshots replaced) and fmi2GetString still gave the old path."""
+    text = SCENE.format(motion="\n    motion: fixed").replace(
+        "output_interval: 1.0e-4}", "output_interval: 1.0e-4, fields: true, field_interval: 2.0e-5}")
+    d, _ = export(tmp_path, "fields_reset", text)
+    s = Slave(d / "fluid.fmu", tmp_path)
+    f = s.fmu
+    vr = s.vr["output.fields"]
+    h5 = tmp_path / "first.h5"
+    f.setupExperiment(startTime=0.0)
+    f.enterInitializationMode()
+    f.setString([vr], [str(h5)])
+    f.exitInitializationMode()
+    for n in range(5):
+        f.doStep(n * DT, DT)
+    f.terminate()
+    f.reset()
+    f.setupExperiment(startTime=0.0)
+    f.enterInitializationMode()
+    assert f.getString([vr])[0].decode() == ""
+    written = h5.stat().st_mtime_ns, h5.read_bytes()
+    f.exitInitializationMode()
+    f.doStep(0.0, DT)
+    s.close()
+    assert (h5.stat().st_mtime_ns, h5.read_bytes()) == written
+    import h5py
+    with h5py.File(h5, "r") as h:
+        assert sorted(h["/fields"].keys()) == ["000000", "000002", "000004"]
