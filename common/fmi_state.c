@@ -219,6 +219,18 @@ static fmi2Status check_blob(const inst_t *in, const char *fn, const unsigned ch
         return fmi_fail(in, fn, "the FMU state is inconsistent (%zu bytes, %llu variables, component %llu bytes)", size,
                         (unsigned long long)h->nvars, (unsigned long long)h->comp_size);
     }
+    /* the state the instance is put in must be one a state can be taken in,
+     * with a component exactly where that state has one: a header that said
+     * StepComplete without one was taken, and the next fmi2DoStep stepped a
+     * NULL component (segmentation fault) */
+    const int needs_comp = S_STEP_COMPLETE | S_STEP_FAILED | S_STEP_CANCELED | S_TERMINATED;
+    if (!(h->state & M_FMU_STATE) || (h->has_comp != 0 && h->has_comp != 1) ||
+        ((h->state & needs_comp) && !h->has_comp) || (h->state == S_INSTANTIATED && h->has_comp)) {
+        return fmi_fail(in, fn, "the FMU state is inconsistent: state %s %s a component (has_comp %d); allowed: "
+                        "a component in StepComplete, StepFailed, StepCanceled and Terminated, none in Instantiated, "
+                        "no state in StepInProgress or Fatal", fmi_state_name(h->state),
+                        h->has_comp ? "with" : "without", (int)h->has_comp);
+    }
     if (!isfinite(h->t) || !isfinite(h->t_start) || (h->has_stop != 0 && h->has_stop != 1) ||
         (h->has_stop && !isfinite(h->t_stop))) {
         return fmi_fail(in, fn, "the FMU state is corrupt: time %g s, start time %g s, stop time %g s (has_stop %d); "

@@ -611,6 +611,59 @@ def test_stale_fmu_states_are_refused_and_freed_with_their_instance(fmus, tmp_pa
     assert grew < 8, p.stdout  # 20 instances, a 0.96 MB state left by each
 
 
+# Run in its own process: the old layer stepped a NULL component (segmentation fault).
+FORGED_STATES = r"""
+import ctypes, struct, sys
+import fmpy
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+
+fmu, h = sys.argv[1], float(sys.argv[2])
+md = fmpy.read_model_description(fmu)
+messages = []
+callbacks = fmi2CallbackFunctions()
+callbacks.logger = fmi2CallbackLoggerTYPE(lambda env, name, status, cat, msg: messages.append(msg.decode()))
+s = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(fmu), modelIdentifier=md.coSimulation.modelIdentifier,
+              instanceName="a")
+s.instantiate(callbacks=callbacks)
+s.setupExperiment(startTime=0.0)
+s.enterInitializationMode()
+init = bytearray(s.serializeFMUstate(s.getFMUstate()))  # no component yet
+s.exitInitializationMode()
+s.doStep(0.0, h)
+stepped = bytearray(s.serializeFMUstate(s.getFMUstate()))
+lib = ctypes.CDLL(s.dll._name)  # the raw entry points: fmpy raises on fmi2Error
+lib.fmi2DeSerializeFMUstate.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_size_t, ctypes.POINTER(ctypes.c_void_p)]
+for name, blob, state in [("StepComplete without a component", init, 4), ("Terminated without a component", init, 64),
+                          ("Instantiated with a component", stepped, 1), ("StepInProgress", stepped, 8),
+                          ("Fatal", stepped, 256)]:
+    bad = bytearray(blob)
+    struct.pack_into("<i", bad, 80, state)  # the header's state (common/fmi_state.c state_header_t)
+    handle = ctypes.c_void_p()
+    rc = lib.fmi2DeSerializeFMUstate(s.component, bytes(bad), len(bad), ctypes.byref(handle))
+    print(name, "refused:", rc == 3 and "inconsistent" in messages[-1], flush=True)
+s.doStep(h, h)  # the instance steps on
+s.freeInstance()
+print("end", flush=True)
+"""
+
+
+@pytest.mark.parametrize("fmu", ["fluid", "rigid"])
+def test_forged_state_header_is_refused(fmus, tmp_path, fmu):
+    """A state blob whose header puts the instance in a state that has a component (StepComplete,
+    Terminated) but carries none was taken, and the next fmi2DoStep stepped a NULL component:
+    segmentation fault, with both FMUs (the blob of a state taken in Initialization Mode, its state
+    field 2 set to 4). Now the header's state must be one a state can be taken in, with a component
+    exactly where that state has one."""
+    script = tmp_path / "forged.py"
+    script.write_text(FORGED_STATES)
+    p = subprocess.run([PY, script, fmus["free"] / f"{fmu}.fmu", repr(DT)], capture_output=True, text=True,
+                       timeout=300, cwd=tmp_path)
+    assert p.returncode == 0, f"exit {p.returncode}: {p.stdout}{p.stderr[-2000:]}"
+    assert p.stdout.splitlines() == [f"{n} refused: True" for n in (
+        "StepComplete without a component", "Terminated without a component", "Instantiated with a component",
+        "StepInProgress", "Fatal")] + ["end"], p.stdout
+
+
 def test_guid_and_resources_are_checked(fmus, tmp_path):
     s = Slave(fmus["free"] / "fluid.fmu", tmp_path)
     s.close()
