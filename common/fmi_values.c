@@ -132,7 +132,8 @@ static fmi2Status set_values(fmi2Component c, const char *fn, fmi_type_t type, c
         if (!isfinite(x)) {
             return fmi_fail(in, fn, "%s (value reference %u) = %g; allowed: a finite value", v->name, vr[i], x);
         }
-        if (v->causality == FMI_PARAMETER && !in_range(v, x)) {
+        /* parameters, and the inputs that declare a range (min/max in modelDescription.xml) */
+        if (!in_range(v, x)) {
             char range[120];
             format_range(v, range, sizeof range);
             return fmi_fail(in, fn, "%s (value reference %u) = %.17g is out of range; allowed: %s%s%s", v->name, vr[i],

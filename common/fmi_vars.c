@@ -153,6 +153,9 @@ int fmi_vars_add_drag(fmi_vars_t *vs, fmi_causality_t causality, int i, int what
     snprintf(zt->description, sizeof zt->description, "-dF/dv of sphere %d's load (implicit coupling)", i);
     zt->what = what_t;
     zt->index = i;
+    /* an input below 0 is refused by fmi2SetReal, naming this range; the
+     * rigid component took it as 0 (explicit coupling) without a word */
+    zt->min = causality == FMI_INPUT ? 0.0 : -INFINITY;
     fmi_var_t *zr = fmi_vars_add(vs, FMI_REAL, causality, "kg.m2/s", "sphere[%d].rotational_drag_coefficient", i);
     if (zr == NULL) {
         return 0;
@@ -160,5 +163,6 @@ int fmi_vars_add_drag(fmi_vars_t *vs, fmi_causality_t causality, int i, int what
     snprintf(zr->description, sizeof zr->description, "-dT/dw of sphere %d's load (implicit coupling)", i);
     zr->what = what_r;
     zr->index = i;
+    zr->min = causality == FMI_INPUT ? 0.0 : -INFINITY;
     return 1;
 }

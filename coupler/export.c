@@ -172,7 +172,8 @@ static int add_variable(xmlNodePtr list, const fmi_var_t *v, int vr)
     if (v->type == FMI_REAL && v->unit != NULL && !attr(t, "unit", v->unit)) {
         return 0;
     }
-    if (v->causality == FMI_PARAMETER && v->type != FMI_BOOLEAN && v->type != FMI_STRING) {
+    /* parameters, and the inputs with a range (the drag coefficients: min 0) */
+    if (v->causality != FMI_OUTPUT && v->type != FMI_BOOLEAN && v->type != FMI_STRING) {
         if ((isfinite(v->min) && !attr_num(t, "min", v->min)) || (isfinite(v->max) && !attr_num(t, "max", v->max))) {
             return 0;
         }

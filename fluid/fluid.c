@@ -708,8 +708,10 @@ void fluid_sphere_drag(const fluid_t *fl, int i, double *zt, double *zr)
 {
     const sphere_t *p = &fl->spheres.s[i];
     const units_t *u = &fl->units;
-    *zt = p->zt * units_force(u) / units_velocity(u);
-    *zr = p->zr * units_torque(u) * u->dt;
+    /* sums of A 2 w rho |c|^2 >= 0 term by term; the rigid FMU refuses a
+     * negative input (a round-off below 0 would stop a run) */
+    *zt = fmax(0.0, p->zt * units_force(u) / units_velocity(u));
+    *zr = fmax(0.0, p->zr * units_torque(u) * u->dt);
 }
 
 void fluid_sphere_load_lattice(const fluid_t *fl, int i, double force[3], double torque[3])

@@ -449,6 +449,29 @@ def test_illegal_calls_are_errors_not_crashes(fmus, tmp_path):
     s.close()
 
 
+def test_negative_drag_coefficient_input_is_refused(fmus, tmp_path):
+    """The rigid FMU's drag coefficients (implicit coupling) are -dF/dv and -dT/dw, >= 0 (rigid.h).
+    A master that sent a negative one got it taken as 0, the explicit coupling, without a word
+    (a load of 1e-9 N: the same velocity after two steps for 0, -1e-6 and -1e3 kg/s). Now fmi2SetReal
+    refuses it with the variable and its range, as for a parameter, and modelDescription.xml
+    declares min="0"; the fluid never publishes one below 0 (A > 0 in every boundary scheme)."""
+    md, v = variables(fmus["free"] / "rigid.fmu")
+    for name in ("sphere[0].drag_coefficient", "sphere[0].rotational_drag_coefficient"):
+        assert v[name].causality == "input" and float(v[name].min) == 0.0
+    s = Slave(fmus["free"] / "rigid.fmu", tmp_path)
+    s.init()
+    f = s.fmu
+    zt, zr, fz = s.vr["sphere[0].drag_coefficient"], s.vr["sphere[0].rotational_drag_coefficient"], \
+        s.vr["sphere[0].force.z"]
+    s.fails(f.setReal, [fz, zt], [1e-9, -1e-6], expect="sphere[0].drag_coefficient (value reference")
+    assert "allowed: [0, inf] kg/s" in s.messages[-1][2]
+    s.fails(f.setReal, [zr], [-1e-20], expect="sphere[0].rotational_drag_coefficient")
+    assert f.getReal([fz, zt, zr]) == [0.0, 0.0, 0.0]  # a refused call sets nothing
+    f.setReal([fz, zt, zr], [1e-9, 1e-7, 0.0])
+    f.doStep(0.0, DT)
+    s.close()
+
+
 def test_scene_warnings_are_logged_once(fmus, tmp_path):
     # the scene (3 cells per radius) draws warnings. The FMU reads it at instantiation and again
     # with the parameters applied in fmi2ExitInitializationMode: each warning was logged twice.
