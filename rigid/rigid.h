@@ -106,8 +106,8 @@ typedef struct {
      * coupled rotation of a sphere of a few cells blow up; 0 (the default and
      * what scenes use): the load of a step is held over that step only. */
     int load_correction;
-    /* s, on the run's clock (not relative to t0): a step that starts before
-     * it moves every free body with its current velocity and angular
+    /* s, on the run's clock (not relative to t0): a step whose middle is
+     * before it (0: none, also before t = 0) moves every free body with its current velocity and angular
      * velocity (kept constant) and applies no load to it (fluid, gravity,
      * contacts, lubrication); its connections carry nothing and cannot break,
      * nothing sticks. The fluid meanwhile develops around the bodies, so that
