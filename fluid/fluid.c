@@ -665,6 +665,17 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
                                       "lower velocity; fluid.tau is already close to 0.5, where a smaller tau makes "
                                       "the lattice less stable");
         }
+        /* cells the velocity input accounts for (exchange_steps 0: not set, one LBM step) */
+        const double carried = speed * (double)(fl->exchange_steps > 1 ? fl->exchange_steps : 1);
+        if (moved > 0.5 && carried < 0.5 * moved) {
+            /* a position that its velocity does not explain: a master that
+             * sets positions and velocities that disagree (or a jump) */
+            const size_t len = strlen(why);
+            snprintf(why + len, sizeof why - len,
+                     "; but its velocity input accounts for %.3g of the %.3g cells since its last position: if the "
+                     "master sets positions that do not follow from its velocities, that is the cause",
+                     carried, moved);
+        }
         return log_msg(&fl->log, STATUS_ERROR, "fluid",
                        "%s: sphere %d moves %.3g cells in one step at step %ld (t = %.6g s), from (%.4g, %.4g, "
                        "%.4g) m at %.4g m/s (limit half a cell per step: the boundary links and the refill of "

@@ -131,6 +131,8 @@ static void test_sphere_speed_limits(void)
     CU_ASSERT(strstr(tl.last, "sphere 0 moves 0.7 cells in one step at step 0") != NULL);
     CU_ASSERT(strstr(tl.last, "limit half a cell per step") != NULL);
     CU_ASSERT(strstr(tl.last, "fluid.tau") != NULL && strstr(tl.last, "fluid.dx") != NULL);
+    /* the velocity input (0.1 cells a step) does not explain the move: said */
+    CU_ASSERT(strstr(tl.last, "its velocity input accounts for 0.1 of the 0.7 cells") != NULL);
     double c1[3], v1[3], w1[3];
     fluid_get_sphere(fl, 0, c1, v1, w1);
     CU_ASSERT_DOUBLE_EQUAL(c1[0], 8.55, 1e-12);
@@ -138,6 +140,7 @@ static void test_sphere_speed_limits(void)
     const double vfast[3] = {0.6, 0, 0};
     CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, c1, vfast, w0), STATUS_ERROR);
     CU_ASSERT(strstr(tl.last, "moves 0.6 cells") != NULL);
+    CU_ASSERT(strstr(tl.last, "accounts for") == NULL); /* a fast velocity, not a jump */
     fluid_free(fl);
 }
 
