@@ -30,10 +30,10 @@ CFLAGS   := -std=c11 -D_POSIX_C_SOURCE=200809L -O3 -march=native -g -fopenmp -fP
 LDLIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial -lm
 SCENE    ?= models/sinking_sphere.yaml
 
-COMMON_SRC  := common/status.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
+COMMON_SRC  := common/status.c common/initial_profile.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
                common/scene_build.c common/scene_check.c common/coupling.c common/big_alloc.c common/file_held.c
 FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/kernel.c fluid/kernel_single.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
-               fluid/spheres.c fluid/sphere_links.c fluid/sphere_others.c fluid/sphere_fill.c fluid/state.c fluid/initial_profile.c fluid/fluid.c fluid/step.c fluid/kernel_skip.c fluid/diagnostics.c fluid/scan.c
+               fluid/spheres.c fluid/sphere_links.c fluid/sphere_others.c fluid/sphere_fill.c fluid/state.c fluid/fluid.c fluid/step.c fluid/kernel_skip.c fluid/diagnostics.c fluid/scan.c
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
                rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \
                rigid/rigid_scene.c rigid/pairs.c rigid/lubrication.c rigid/contact_watch.c

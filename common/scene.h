@@ -96,6 +96,7 @@ typedef struct {
     double velocity[3];         /* initial (free) or prescribed (prescribed), m/s */
     double angular_velocity[3]; /* rad/s, same meaning */
     motion_t motion;
+    int move_with_flow;         /* velocity and angular_velocity taken from the initial flow (scene_build.c) */
 } scene_body_t;
 
 typedef struct {

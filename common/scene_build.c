@@ -6,6 +6,7 @@
  * read. The checks that relate values to each other (scene_check.c) run in
  * scene_build once their inputs are known to be usable. Every violation is
  * reported, not only the first; the caller frees a partly built scene. */
+#include "initial_profile.h"
 #include "scene_internal.h"
 
 #include <limits.h>
@@ -162,6 +163,20 @@ static bool build_bodies(ctx_t *c, const raw_scene_t *r, scene_t *s)
         b->motion = rb->motion ? *rb->motion : MOTION_FREE;
         opt_vec(b->velocity, rb->velocity, 0, 0, 0);
         opt_vec(b->angular_velocity, rb->angular_velocity, 0, 0, 0);
+        b->move_with_flow = rb->move_with_flow != NULL && *rb->move_with_flow;
+        if (b->move_with_flow) {
+            snprintf(key, sizeof key, "bodies.%d.move_with_flow", i);
+            if (b->motion != MOTION_FREE) {
+                scene_report_bad(c, key, "= true for a %s body; allowed: for free bodies only (a prescribed body "
+                                 "moves as given, a fixed one not at all)",
+                                 b->motion == MOTION_FIXED ? "fixed" : "prescribed");
+            } else if (rb->velocity != NULL || rb->angular_velocity != NULL) {
+                scene_report_warn(c, key, "= true: bodies.%d.%s given too is replaced by the flow's", i,
+                                  rb->velocity != NULL && rb->angular_velocity != NULL ? "velocity and angular_velocity"
+                                  : rb->velocity != NULL                                ? "velocity"
+                                                                                        : "angular_velocity");
+            }
+        }
 
         snprintf(key, sizeof key, "bodies.%d.density", i);
         scene_check_range(c, key, b->density, 0, INFINITY, LO_OPEN);
@@ -513,6 +528,9 @@ void scene_build(ctx_t *c, const raw_scene_t *r, scene_t *s)
     }
     if (domain_ok) {
         scene_check_initial_profile(c, s);
+        if (c->nerrors == 0) {
+            scene_start_with_flow(s);
+        }
     }
     if (!build_connections(c, r, s)) {
         return;

@@ -79,6 +79,7 @@ typedef struct {
     motion_t *motion;
     double *velocity;
     double *angular_velocity;
+    int *move_with_flow;
     scene_sphere_t *spheres;
     unsigned spheres_count;
 } raw_body_t;

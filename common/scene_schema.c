@@ -127,6 +127,7 @@ static const cyaml_schema_field_t BODY_FIELDS[] = {
     ENUM_FIELD("motion", raw_body_t, motion, MOTION_NAMES),
     CYAML_FIELD_SEQUENCE_FIXED("velocity", OPT_PTR, raw_body_t, velocity, &SCHEMA_DOUBLE, 3),
     CYAML_FIELD_SEQUENCE_FIXED("angular_velocity", OPT_PTR, raw_body_t, angular_velocity, &SCHEMA_DOUBLE, 3),
+    ENUM_FIELD("move_with_flow", raw_body_t, move_with_flow, BOOL_NAMES),
     CYAML_FIELD_SEQUENCE("spheres", CYAML_FLAG_POINTER, raw_body_t, spheres, &SPHERE_SCHEMA, 1, CYAML_UNLIMITED),
     CYAML_FIELD_END,
 };

@@ -12,7 +12,7 @@
 #include "../common/big_alloc.h"
 #include "../common/coupling.h"
 
-#include "initial_profile.h"
+#include "../common/initial_profile.h"
 #include "lattice.h"
 
 #include <math.h>

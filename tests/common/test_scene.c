@@ -466,6 +466,42 @@ static void test_unbalanced_periodic_weight(void)
     scene_free(s);
 }
 
+/* bodies.N.move_with_flow: the free body starts with the initial flow's
+ * rigid motion at the r^3-weighted centroid of its centres. The base scene's
+ * plane channel along z (no-slip floor, lid at U = 1e-3 m/s in x, H = 2e-3 m):
+ * u_x = U z/H, w_y = (1/2) du_x/dz = U/(2H) = 0.25 rad/s at the centroid
+ * (5.75e-4, 5e-4, 5e-4) m: u_x = 2.5e-4 m/s. With a body force g = 1 N/m^3
+ * along x the Poiseuille part g/(2 rho nu) z (H - z) adds 3.75e-4 m/s and
+ * g/(2 rho nu)(H - 2z)/2 = 0.25 rad/s. */
+static void test_move_with_flow(void)
+{
+    const char *const ov[] = {"fluid.initial_profile=plane_channel", "bodies.0.move_with_flow=true"};
+    capture_t cap;
+    scene_t *s = NULL;
+    CU_ASSERT_EQUAL_FATAL(scene_test_load(BASE, ov, 2, &cap, &s), STATUS_OK);
+    const double *v = s->bodies[0].velocity, *w = s->bodies[0].angular_velocity;
+    CU_ASSERT_DOUBLE_EQUAL(v[0], 2.5e-4, 1e-15);
+    CU_ASSERT(v[1] == 0.0 && v[2] == 0.0);
+    CU_ASSERT_DOUBLE_EQUAL(w[1], 0.25, 1e-9);
+    CU_ASSERT(fabs(w[0]) < 1e-12 && fabs(w[2]) < 1e-12);
+    scene_free(s);
+    const char *const ovg[] = {"fluid.initial_profile=plane_channel", "bodies.0.move_with_flow=true",
+                               "fluid.body_force=[1, 0, 0]"};
+    CU_ASSERT_EQUAL_FATAL(scene_test_load(BASE, ovg, 3, &cap, &s), STATUS_OK);
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].velocity[0], 6.25e-4, 1e-15);
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].angular_velocity[1], 0.5, 1e-9);
+    scene_free(s);
+    /* given velocities are replaced, with a warning; a fixed body cannot */
+    const char *const ovw[] = {"fluid.initial_profile=plane_channel", "bodies.0.move_with_flow=true",
+                               "bodies.0.angular_velocity=[0, 7, 0]"};
+    CU_ASSERT_EQUAL_FATAL(scene_test_load(BASE, ovw, 3, &cap, &s), STATUS_OK);
+    CU_ASSERT_DOUBLE_EQUAL(s->bodies[0].angular_velocity[1], 0.25, 1e-9);
+    scene_test_contains(&cap, "bodies.0.angular_velocity given too is replaced by the flow's", __FILE__, __LINE__);
+    scene_free(s);
+    const char *const ovf[] = {"bodies.1.move_with_flow=true"};
+    EXPECT_ERROR(BASE, ovf, 1, "bodies.1.move_with_flow = true for a fixed body; allowed: for free bodies only");
+}
+
 void scene_register_tests(void)
 {
     static const struct {
@@ -483,6 +519,7 @@ void scene_register_tests(void)
         {"contacts.lubrication", test_lubrication_keys},
         {"body across a periodic face", test_body_across_periodic_face},
         {"unbalanced weight in a periodic box warns", test_unbalanced_periodic_weight},
+        {"move_with_flow: the initial flow's rigid motion", test_move_with_flow},
     };
     CU_pSuite s = CU_add_suite("scene: valid input", NULL, NULL);
     if (s == NULL) {
