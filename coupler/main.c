@@ -180,6 +180,19 @@ static int cmd_check(const scene_t *s, int world, const log_t *log)
                     s->path, b, c.kappa, COUPLING_AUTO_KAPPA);
         }
     }
+    for (int b = 0; b < s->nbodies; b++) {
+        const scene_body_t *body = &s->bodies[b];
+        if (body->move_with_flow) {
+            printf("  %-18s body %d: velocity (%.6g, %.6g, %.6g) m/s, angular velocity (%.6g, %.6g, %.6g) rad/s "
+                   "(move_with_flow)\n",
+                   "starts with flow", b, body->velocity[0], body->velocity[1], body->velocity[2],
+                   body->angular_velocity[0], body->angular_velocity[1], body->angular_velocity[2]);
+        }
+    }
+    if (s->rigid.release_time > 0) {
+        printf("  release time       %.6g s: free bodies held until then (%.4g steps)\n", s->rigid.release_time,
+               s->rigid.release_time / u.dt);
+    }
     printf("  steps              %ld to t = %.6g s\n", a.steps, s->run.end_time);
     const double interior = (double)u.n[0] * u.n[1] * u.n[2];
     printf("  memory             %.4g MB (fluid.streaming %s: %.1f bytes per allocated cell, %.1f per interior cell "

@@ -262,6 +262,17 @@ def test_tiny_intervals_do_not_hang(coupler, tmp_path):
     assert p.returncode == 1 and "--checkpoint-every 1e-30 s is shorter than one communication step" in p.stderr
 
 
+def test_check_prints_the_start_with_the_flow_and_the_release(coupler):
+    # breakup_shear: walls at -+0.01 m/s, 3.6 mm apart: the flow turns at gamma/2 = 2.778 rad/s
+    p = run("check", MODELS / "breakup_shear.yaml", "--set", "fluid.initial_profile=plane_channel",
+            "--set", "bodies.0.move_with_flow=true", "--set", "rigid.release_time=0.025")
+    assert p.returncode == 0, p.stderr
+    m = re.search(r"starts with flow +body 0: velocity \(.*\) m/s, angular velocity \(\S+, (\S+), \S+\) rad/s",
+                  p.stdout)
+    assert m and float(m.group(1)) == pytest.approx(0.01 / 0.0036, rel=1e-5), p.stdout
+    assert re.search(r"release time +0.025 s: free bodies held until then \(100 steps\)", p.stdout), p.stdout
+
+
 def test_a_scene_warning_is_printed_once(coupler, tmp_path):
     # the master reads the scene, and each FMU read it at instantiation and again with its
     # parameters: the same warning came five times (twice from each FMU). Now the master's, once.
