@@ -25,32 +25,35 @@ static void kinematic_velocity(const rigid_body_t *b, const double x[3], double 
     }
 }
 
+void rigid_kinematic_move(rigid_body_t *b, double h)
+{
+    double d[3];
+    rv_sub(b->com, b->kp, d);
+    const double wn = rv_norm(b->kw);
+    if (wn > 0.0) {
+        const double half = 0.5 * wn * h, sn = sin(half) / wn;
+        const double dq[4] = {cos(half), sn * b->kw[0], sn * b->kw[1], sn * b->kw[2]};
+        double qn[4], m[9], dn[3];
+        rq_mul(dq, b->q, qn);
+        const double n = sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3]);
+        for (int k = 0; k < 4; k++) {
+            b->q[k] = qn[k] / n;
+        }
+        rq_matrix(dq, m);
+        rm_mul(m, d, dn);
+        memcpy(d, dn, sizeof d);
+    }
+    for (int a = 0; a < 3; a++) {
+        b->kp[a] += h * b->kv[a];
+        b->com[a] = b->kp[a] + d[a];
+    }
+}
+
 void rigid_kinematic_advance(rigid_t *r, double h)
 {
     for (int bi = 0; bi < r->nbodies; bi++) {
-        rigid_body_t *b = &r->bodies[bi];
-        if (!b->kinematic) {
-            continue;
-        }
-        double d[3];
-        rv_sub(b->com, b->kp, d);
-        const double wn = rv_norm(b->kw);
-        if (wn > 0.0) {
-            const double half = 0.5 * wn * h, sn = sin(half) / wn;
-            const double dq[4] = {cos(half), sn * b->kw[0], sn * b->kw[1], sn * b->kw[2]};
-            double qn[4], m[9], dn[3];
-            rq_mul(dq, b->q, qn);
-            const double n = sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3]);
-            for (int k = 0; k < 4; k++) {
-                b->q[k] = qn[k] / n;
-            }
-            rq_matrix(dq, m);
-            rm_mul(m, d, dn);
-            memcpy(d, dn, sizeof d);
-        }
-        for (int a = 0; a < 3; a++) {
-            b->kp[a] += h * b->kv[a];
-            b->com[a] = b->kp[a] + d[a];
+        if (r->bodies[bi].kinematic) {
+            rigid_kinematic_move(&r->bodies[bi], h);
         }
     }
 }

@@ -90,10 +90,15 @@ static void cv_errhandler(int code, const char *module, const char *function, ch
     snprintf(d->last_msg, sizeof d->last_msg, "%s %s (%d): %s", module, function, code, msg);
 }
 
-static void unpack(const rigid_t *r, const double *y, rigid_body_t *out)
+/* The bodies at time r->t + dt: the free ones from y, a prescribed one moved on
+ * by dt from where it is at r->t, so that every evaluation sees it at its time. */
+static void unpack(const rigid_t *r, const double *y, double dt, rigid_body_t *out)
 {
     for (int b = 0; b < r->nbodies; b++) {
         out[b] = r->bodies[b];
+        if (out[b].kinematic && dt != 0.0) {
+            rigid_kinematic_move(&out[b], dt);
+        }
         if (r->bodies[b].fixed) {
             continue;
         }
@@ -124,7 +129,7 @@ static int rhs(sunrealtype t, N_Vector y, N_Vector ydot, void *user)
     const double *yy = N_VGetArrayPointer(y);
     double *yd = N_VGetArrayPointer(ydot);
     rigid_body_t *bs = r->scratch_bodies;
-    unpack(r, yy, bs);
+    unpack(r, yy, t - r->t, bs);
     int rc = rigid_forces(r, bs, 0.0, NULL);
     if (rc < 0) {
         return -1;
@@ -270,7 +275,7 @@ static status_t cv_report(rigid_t *r, cvode_data_t *d, int flag, double tret)
         return rigid_fault_report(r, &d->fault, d->fault_t);
     }
     rigid_contact_info_t worst;
-    unpack(r, N_VGetArrayPointer(d->y), r->scratch_bodies);
+    unpack(r, N_VGetArrayPointer(d->y), tret - r->t, r->scratch_bodies);
     int rc = rigid_forces(r, r->scratch_bodies, 0.0, &worst);
     char where[512] = "";
     if (rc < 0) {
@@ -390,16 +395,19 @@ static status_t cv_advance(rigid_t *r, void *data, double h)
             if (flag < 0) {
                 return cv_report(r, d, flag, tret);
             }
-            unpack(r, y, r->scratch_bodies);
+            unpack(r, y, tret - r->t, r->scratch_bodies);
             if (rigid_forces(r, r->scratch_bodies, 0.0, NULL) >= 0 &&
                 (st = rigid_contact_watch(r, r->scratch_bodies, tret)) != STATUS_OK) {
                 return st;
             }
         } while (flag != CV_TSTOP_RETURN && tret < tend);
     }
-    unpack(r, y, r->scratch_bodies);
+    unpack(r, y, 0.0, r->scratch_bodies);
     for (int b = 0; b < r->nbodies; b++) {
         rigid_body_t *bd = &r->bodies[b];
+        if (bd->kinematic) {
+            rigid_kinematic_move(bd, h);
+        }
         if (bd->fixed) {
             continue;
         }

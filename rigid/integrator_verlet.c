@@ -138,6 +138,9 @@ static status_t verlet_advance(rigid_t *r, void *data, double h)
         kick(r, 0.5 * hs);
         for (int b = 0; b < r->nbodies; b++) {
             rigid_body_t *bd = &r->bodies[b];
+            if (bd->kinematic) {
+                rigid_kinematic_move(bd, hs); /* prescribed: drifts with the free bodies */
+            }
             if (bd->fixed) {
                 continue;
             }

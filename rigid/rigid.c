@@ -395,10 +395,10 @@ status_t rigid_step(rigid_t *r, double h)
     if (st != STATUS_OK) {
         return st;
     }
-    /* prescribed bodies sit at the step's midpoint while the free ones move */
-    rigid_kinematic_advance(r, 0.5 * h);
+    /* the integrator moves the prescribed bodies with the free ones, each force
+     * evaluation seeing them where they are at its time (before, they sat at the
+     * step's midpoint: a contact with one was off by half its step's travel) */
     st = r->ops->advance(r, r->integ, h);
-    rigid_kinematic_advance(r, 0.5 * h);
     if (st != STATUS_OK) {
         return st;
     }

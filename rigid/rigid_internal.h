@@ -243,6 +243,9 @@ void rigid_body_point_velocity(const rigid_body_t *b, const double a[3], double 
 /* Moves the kinematic (prescribed) bodies on by h: the pivot with kv, the body turned
  * exactly by kw h about it. */
 void rigid_kinematic_advance(rigid_t *r, double h);
+/* Moves one kinematic body on by h (the integrators move them with the free bodies'
+ * time: a Verlet drift, each CVODE evaluation at its own t). */
+void rigid_kinematic_move(rigid_body_t *b, double h);
 /* contact.c: adds contact forces to r->sf/st; x: sphere centres */
 int rigid_contacts(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], rigid_contact_info_t *worst);
 /* The error message of a fault found at time t (names body, sphere, partner or face, gap). */
