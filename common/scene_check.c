@@ -376,7 +376,9 @@ void scene_check_overlaps(ctx_t *c, const scene_t *s, bool domain_ok)
                     double dv[3];
                     const double dist = image_diff(s, q->center, p->center, domain_ok, dv);
                     const double rsum = p->radius + q->radius;
-                    if (dist < rsum) {
+                    if (dist < rsum && !scene_report_shown(c)) {
+                        scene_report_count(c, STATUS_ERROR);
+                    } else if (dist < rsum) {
                         snprintf(key, sizeof key, "bodies.%d.spheres.%d.center", j, l);
                         scene_report_bad(c, key,
                                          "= %s (sphere %d, body %d) overlaps sphere %d of body %d at %s: "
@@ -412,6 +414,10 @@ static void check_buried_pair(ctx_t *c, const scene_t *s, int i, int k, int j, i
     }
     if (d >= r + R || (d > 0 && d * d + r * r - R * R > 0)) {
         return; /* apart, touching, or sintered with the plane between the centres */
+    }
+    if (!scene_report_shown(c)) {
+        scene_report_count(c, STATUS_ERROR); /* formatting n^2 hidden messages took minutes */
+        return;
     }
     char key[SCENE_KEY_MAX], how[SCENE_MSG_MAX / 4];
     if (d == 0) {

@@ -225,6 +225,11 @@ void scene_report(ctx_t *c, status_t level, const char *key, const char *fmt, ..
 void scene_report_bad(ctx_t *c, const char *key, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 void scene_report_warn(ctx_t *c, const char *key, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 void scene_report_oom(ctx_t *c);
+/* Past SCENE_MESSAGES_MAX a message is only counted: a check that would
+ * break thousands of times (n^2 pairs of spheres) asks first and counts the
+ * rest without formatting them (scene_report_count). */
+bool scene_report_shown(const ctx_t *c);
+void scene_report_count(ctx_t *c, status_t level);
 /* Step 1: the key -> line table of the node tree below node `id`; freed by scene_report_where_free. */
 void scene_report_where_walk(ctx_t *c, yaml_document_t *doc, int id, const char *prefix, int depth);
 void scene_report_where_free(ctx_t *c);

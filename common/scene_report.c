@@ -71,18 +71,31 @@ static void ctx_locate(const ctx_t *c, const char *key, char *buf, size_t size)
     snprintf(buf, size, "%s", c->file);
 }
 
-static void ctx_vreport(ctx_t *c, status_t level, const char *key, const char *fmt, va_list ap)
+bool scene_report_shown(const ctx_t *c)
+{
+    return c->nlogged < SCENE_MESSAGES_MAX;
+}
+
+void scene_report_count(ctx_t *c, status_t level)
 {
     if (level >= STATUS_ERROR) {
         c->nerrors++;
     }
+    c->nhidden++;
+    c->nhidden_errors += level >= STATUS_ERROR;
+}
+
+static void ctx_vreport(ctx_t *c, status_t level, const char *key, const char *fmt, va_list ap)
+{
     /* A scene with thousands of spheres can break a check thousands of times
      * (or, for overlaps, n^2 times): the first messages say what is wrong,
      * the rest are only counted (scene_report_hidden). */
-    if (c->nlogged >= SCENE_MESSAGES_MAX) {
-        c->nhidden++;
-        c->nhidden_errors += level >= STATUS_ERROR;
+    if (!scene_report_shown(c)) {
+        scene_report_count(c, level);
         return;
+    }
+    if (level >= STATUS_ERROR) {
+        c->nerrors++;
     }
     c->nlogged++;
     char body[SCENE_MSG_MAX];
