@@ -130,6 +130,32 @@ status_t scene_load(const char *path, const char *const *overrides, int noverrid
         scene_report_bad(&c, "", "cannot open the scene file: %s", strerror(errno));
         goto done;
     }
+    {
+        /* the nesting first, from the events (scene_yaml_depth_within) */
+        yaml_parser_t pre;
+        if (!yaml_parser_initialize(&pre)) {
+            scene_report_oom(&c);
+            goto done;
+        }
+        yaml_parser_set_input_file(&pre, fp);
+        yaml_mark_t deep;
+        const int within = scene_yaml_depth_within(&pre, SCENE_DEPTH_MAX, &deep);
+        if (within == -1 && pre.error == YAML_MEMORY_ERROR) {
+            yaml_parser_delete(&pre);
+            scene_report_oom(&c);
+            goto done;
+        }
+        yaml_parser_delete(&pre);
+        if (within == 0) {
+            scene_report_too_deep(&c, deep, SCENE_DEPTH_MAX, NULL);
+            goto done;
+        }
+        if (fseek(fp, 0, SEEK_SET) != 0) {
+            scene_report_bad(&c, "", "cannot read the scene file again from its start: %s", strerror(errno));
+            goto done;
+        }
+        clearerr(fp);
+    }
     if (!yaml_parser_initialize(&parser)) {
         scene_report_oom(&c);
         goto done;

@@ -26,6 +26,7 @@ enum {
     SCENE_MSG_MAX = 1024,   /* one message body */
     SCENE_FRAMES_MAX = 32,  /* libcyaml backtrace depth we keep */
     SCENE_VALUE_DEPTH_MAX = 32, /* nesting of an override value */
+    SCENE_DEPTH_MAX = 64, /* nesting of the scene file (a scene needs 6: bodies.0.spheres.0.center.0) */
     SCENE_MESSAGES_MAX = 50, /* messages logged by one load; the rest are counted in one last message */
 };
 
@@ -247,6 +248,18 @@ void scene_report_cyaml_log(cyaml_log_t level, void *vctx, const char *fmt, va_l
 void scene_report_cyaml_error(ctx_t *c, cyaml_err_t err);
 
 /* ---- scene_override.c: steps 2 and 3 ---- */
+/* Step 1, before the node tree is built: the lists and mappings of the YAML
+ * text that `p` reads, nested more than `max` deep? From the parser's events,
+ * so that the cost is bounded by `max` per token (libyaml's scanner costs the
+ * depth per token: 100 000 nested lists, 200 kB, took 27 s to parse) and no
+ * deep tree reaches the recursive walkers (libyaml's emitter overflowed the
+ * stack at that depth, a segmentation fault). Returns 1 when within `max`, 0
+ * when deeper (*where: the collection one level too deep), -1 when the
+ * parser fails first (the loader reports that error itself). */
+int scene_yaml_depth_within(yaml_parser_t *p, int max, yaml_mark_t *where);
+/* The message for a file or override value nested too deep: `what` NULL for
+ * the file, else names the override. */
+void scene_report_too_deep(ctx_t *c, yaml_mark_t where, int max, const char *what);
 const char *scene_override_node_kind(const yaml_node_t *n); /* "a mapping", "a list" or "a scalar" */
 /* A mapping or list reached twice (a YAML alias of it), or NULL; *oom on failure to count. */
 const yaml_node_t *scene_override_shared_collection(yaml_document_t *doc, bool *oom);

@@ -101,6 +101,31 @@ static int node_copy(yaml_document_t *dst, yaml_document_t *src, int id, int dep
     }
 }
 
+int scene_yaml_depth_within(yaml_parser_t *p, int max, yaml_mark_t *where)
+{
+    int depth = 0;
+    for (;;) {
+        yaml_event_t ev;
+        if (!yaml_parser_parse(p, &ev)) {
+            return -1;
+        }
+        const yaml_event_type_t type = ev.type;
+        if (type == YAML_SEQUENCE_START_EVENT || type == YAML_MAPPING_START_EVENT) {
+            if (++depth > max) {
+                *where = ev.start_mark;
+                yaml_event_delete(&ev);
+                return 0;
+            }
+        } else if (type == YAML_SEQUENCE_END_EVENT || type == YAML_MAPPING_END_EVENT) {
+            depth--;
+        }
+        yaml_event_delete(&ev);
+        if (type == YAML_STREAM_END_EVENT) {
+            return 1;
+        }
+    }
+}
+
 /* Parses the text after '=' as a YAML document and copies its root into doc. */
 static int override_value(ctx_t *c, yaml_document_t *doc, const char *ov, const char *value)
 {
@@ -115,6 +140,24 @@ static int override_value(ctx_t *c, yaml_document_t *doc, const char *ov, const 
     }
     parser_ok = true;
     yaml_parser_set_input_string(&parser, (const unsigned char *)value, strlen(value));
+    {
+        yaml_mark_t deep;
+        if (scene_yaml_depth_within(&parser, SCENE_DEPTH_MAX, &deep) == 0) {
+            char what[SCENE_KEY_MAX + 32];
+            snprintf(what, sizeof what, "override '%s': the value at ", ov);
+            scene_report_too_deep(c, deep, SCENE_DEPTH_MAX, what);
+            goto done;
+        }
+        /* again from the start, for the document */
+        yaml_parser_delete(&parser);
+        parser_ok = false;
+        if (!yaml_parser_initialize(&parser)) {
+            scene_report_oom(c);
+            goto done;
+        }
+        parser_ok = true;
+        yaml_parser_set_input_string(&parser, (const unsigned char *)value, strlen(value));
+    }
     if (!yaml_parser_load(&parser, &vdoc)) {
         char what[SCENE_KEY_MAX + 32];
         snprintf(what, sizeof what, "override '%s': the value is not YAML", ov);

@@ -252,6 +252,15 @@ void scene_report_yaml_error(ctx_t *c, const yaml_parser_t *p, const char *what)
     c->nerrors++;
 }
 
+void scene_report_too_deep(ctx_t *c, yaml_mark_t where, int max, const char *what)
+{
+    log_msg(c->log, STATUS_ERROR, "scene",
+            "%s%s%s%zu:%zu: YAML nested too deep: this list or mapping lies inside %d others; allowed: at most %d "
+            "levels (a scene needs 6: bodies.0.spheres.0.center)",
+            c->file, what == NULL ? "" : ": ", what == NULL ? ":" : what, where.line + 1, where.column + 1, max, max);
+    c->nerrors++;
+}
+
 void scene_report_alias(ctx_t *c, const yaml_node_t *n, const char *what)
 {
     const char *kind = n->type == YAML_MAPPING_NODE ? "mapping" : "list";
