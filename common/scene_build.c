@@ -500,7 +500,7 @@ static void build_run(ctx_t *c, const raw_run_t *r, scene_run_t *u)
     for (int a = 0; a < 3; a++) {
         u->ranks[a] = 0;
         if (r->ranks != NULL) {
-            static const char *const keys[3] = {"run.ranks[0]", "run.ranks[1]", "run.ranks[2]"};
+            static const char *const keys[3] = {"run.ranks.0", "run.ranks.1", "run.ranks.2"};
             u->ranks[a] = scene_check_int(c, keys[a], r->ranks[a], 1, 65536) ? (int)r->ranks[a] : 1;
         }
     }

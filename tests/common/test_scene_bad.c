@@ -379,6 +379,14 @@ static const bad_scene_t CASES[] = {
      "scene.yaml:26: run.end_time = 1e+15 s is 1.6e+19 steps of fluid.dt = 6.25e-05 s, more than a run can count; "
      "allowed: at most 9007199254740992 (2^53) steps, i.e. run.end_time <= 562949953421 s"},
 
+    /* run.ranks: a bad entry was named "run.ranks[0]", a key no other message or --set uses, so it was
+       located at the file's run line even when the value came from --set */
+    {0, NULL, NULL, {"run.ranks=[2, 0, 1]"}, 1,
+     "scene.yaml (--set run.ranks=[2, 0, 1]): run.ranks.1 = 0: not a whole number in range; allowed: an integer in "
+     "[1, 65536]"},
+    {26, "run: {end_time: 2.0,\n      ranks: [1, 1, 1.5]}", NULL, {NULL}, 1,
+     "scene.yaml:27: run.ranks.2 = 1.5: not a whole number in range; allowed: an integer in [1, 65536]"},
+
     /* --- --set paths --- */
     {0, NULL, NULL, {"run.end_time.0=1"}, 1,
      "scene.yaml: override 'run.end_time.0=1': run.end_time is a number and has no key '0'"},
