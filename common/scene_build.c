@@ -526,6 +526,9 @@ void scene_build(ctx_t *c, const raw_scene_t *r, scene_t *s)
     if (domain_ok && c->nerrors == 0) {
         scene_unwrap_bodies(s);
     }
+    if (c->nerrors == 0) {
+        scene_check_masses(c, s);
+    }
     if (domain_ok) {
         scene_check_initial_profile(c, s);
         if (c->nerrors == 0) {

@@ -506,6 +506,59 @@ void scene_unwrap_bodies(scene_t *s)
     }
 }
 
+/* A free body's mass and moments of inertia must be numbers the rigid
+ * component can divide by: normal (>= DBL_MIN) and finite. Each key was in
+ * its range, but `density: 1e-308` made the mass of a sphere of 0.3 mm
+ * subnormal and its moment of inertia 0, and `density: 1e308` made a 2 m
+ * sphere's mass inf; both passed `coupler check`, and the run stopped at its
+ * first step with the rigid component's NaN blamed on the fluid's input
+ * ("fmi2SetReal: sphere[0].position.x (value reference 6) = -nan"). Bounds
+ * from the spheres' volumes (overlaps ignored): the smallest moment is at
+ * least that of the smallest sphere alone about its centre, 2/5 m r^2 with
+ * its own mass, the largest at most the whole mass at the body's extent. */
+void scene_check_masses(ctx_t *c, const scene_t *s)
+{
+    char key[SCENE_KEY_MAX];
+    for (int i = 0; i < s->nbodies; i++) {
+        const scene_body_t *b = &s->bodies[i];
+        if (b->motion != MOTION_FREE || b->nspheres == 0) {
+            continue;
+        }
+        double vol = 0.0, vmin = INFINITY, lo[3], hi[3];
+        for (int a = 0; a < 3; a++) {
+            lo[a] = INFINITY;
+            hi[a] = -INFINITY;
+        }
+        for (int k = 0; k < b->nspheres; k++) {
+            const scene_sphere_t *p = &b->spheres[k];
+            const double v = 4.0 / 3.0 * 3.14159265358979323846 * p->radius * p->radius * p->radius;
+            vol += v;
+            vmin = fmin(vmin, 0.4 * v * p->radius * p->radius); /* its moment per density */
+            for (int a = 0; a < 3; a++) {
+                lo[a] = fmin(lo[a], p->center[a] - p->radius);
+                hi[a] = fmax(hi[a], p->center[a] + p->radius);
+            }
+        }
+        const double ext2 = (hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                            (hi[2] - lo[2]) * (hi[2] - lo[2]);
+        const double rho = b->density, mass = rho * vol, imin = rho * vmin, imax = mass * ext2;
+        if (mass >= DBL_MIN && imin >= DBL_MIN && isfinite(mass) && isfinite(imax)) {
+            continue;
+        }
+        /* the densities that give usable numbers */
+        const double dlo = fmax(DBL_MIN / vol, DBL_MIN / vmin),
+                     dhi = fmin(DBL_MAX, fmin(DBL_MAX / vol, DBL_MAX / (vol * ext2)));
+        snprintf(key, sizeof key, "bodies.%d.density", i);
+        scene_report_bad(c, key,
+                         "= %s kg/m^3 gives the body a mass of %s kg (volume %s m^3) and moments of inertia between "
+                         "%s and %s kg m^2, %s the rigid component can divide by; allowed: a mass and moments of "
+                         "inertia in [%s, %s], here a density in [%s, %s] kg/m^3",
+                         fmt_num(rho).s, fmt_num(mass).s, fmt_num(vol).s, fmt_num(imin).s, fmt_num(imax).s,
+                         mass >= DBL_MIN && imin >= DBL_MIN ? "beyond the numbers" : "below the smallest numbers",
+                         fmt_num(DBL_MIN).s, fmt_num(DBL_MAX).s, fmt_num(dlo).s, fmt_num(dhi).s);
+    }
+}
+
 /* A sphere surface point must not move more than half a cell per LBM step
  * (the link lists and refill assume it; the fluid refuses a larger move of a
  * sphere, fluid_set_sphere). The body's reference point is the

@@ -298,6 +298,7 @@ void scene_check_buried(ctx_t *c, const scene_t *s, bool domain_ok);
 #define SCENE_TOUCH_TOL 1e-9
 void scene_unwrap_bodies(scene_t *s);
 void scene_check_initial_profile(ctx_t *c, scene_t *s); /* sets fluid.channel_axis */
+void scene_check_masses(ctx_t *c, const scene_t *s);
 void scene_check_speeds(ctx_t *c, const scene_t *s);
 void scene_check_time_scales(ctx_t *c, const scene_t *s);
 void scene_check_net_force(ctx_t *c, const scene_t *s);

@@ -379,6 +379,23 @@ static const bad_scene_t CASES[] = {
      "scene.yaml:26: run.end_time = 1e+15 s is 1.6e+19 steps of fluid.dt = 6.25e-05 s, more than a run can count; "
      "allowed: at most 9007199254740992 (2^53) steps, i.e. run.end_time <= 562949953421 s"},
 
+    /* densities in (0, inf) whose body mass or moment of inertia is not a normal, finite number: they passed
+       `coupler check`, and the run stopped at its first step with "fmi2SetReal: sphere[0].velocity.x (value
+       reference 9) = -nan" from the fluid */
+    {0, NULL, NULL, {"bodies.0.density=1e-308"}, 1,
+     "scene.yaml (--set bodies.0.density=1e-308): bodies.0.density = 1e-308 kg/m^3 gives the body a mass of "
+     "8.37737709088e-320 kg (volume 8.37758040957e-12 m^3) and moments of inertia between 0 and 0 kg m^2, below the "
+     "smallest numbers the rigid component can divide by; allowed: a mass and moments of inertia in "
+     "[2.22507385851e-308, 1.79769313486e+308], here a density in [1.32799313747e-288, 1.79769313486e+308] kg/m^3"},
+    {0,
+     "domain: {size: [10.0, 10.0, 10.0]}\nfluid: {density: 1000.0, viscosity: 1.0e-6, dx: 0.5, tau: 0.8}\n"
+     "bodies:\n  - {density: 1.0e308, spheres: [{center: [5.0, 5.0, 5.0], radius: 2.0}]}\nrun: {end_time: 1.0e6}\n",
+     NULL, {NULL}, 1,
+     "scene.yaml:4: bodies.0.density = 1e+308 kg/m^3 gives the body a mass of inf kg (volume 33.5103216383 m^3) and "
+     "moments of inertia between inf and inf kg m^2, beyond the numbers the rigid component can divide by; allowed: a "
+     "mass and moments of inertia in [2.22507385851e-308, 1.79769313486e+308], here a density in "
+     "[6.63996568736e-310, 1.11762401787e+305] kg/m^3"},
+
     /* run.ranks: a bad entry was named "run.ranks[0]", a key no other message or --set uses, so it was
        located at the file's run line even when the value came from --set */
     {0, NULL, NULL, {"run.ranks=[2, 0, 1]"}, 1,
