@@ -45,6 +45,7 @@
 
 #include <errno.h>
 #include <ftw.h>
+#include <sys/stat.h>
 #include <limits.h>
 #include <math.h>
 #include <omp.h>
@@ -95,6 +96,17 @@ static int nfree_bodies(const scene_t *s)
 
 static status_t check_writable(const char *path, const log_t *log)
 {
+    struct stat st;
+    if (path[0] == '\0') {
+        return log_msg(log, STATUS_ERROR, CAT, "the output file name is empty; allowed: a file name such as out.h5 (-o)");
+    }
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
+        /* HDF5 then said "cannot create the output file (does the folder exist and is it writable?)" */
+        return log_msg(log, STATUS_ERROR, CAT,
+                       "cannot write %s: it is a folder; nothing was written; allowed: a file (-o OUT.h5 writes "
+                       "OUT.h5, OUT_fields.h5 and OUT_checkpoint.h5)",
+                       path);
+    }
     char dir[4096];
     resources_folder(path, dir, sizeof dir);
     if (access(dir, W_OK | X_OK) != 0) {
@@ -424,6 +436,9 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         if (writer && check_writable(m.fields, log) >= STATUS_ERROR) {
             goto done;
         }
+    }
+    if (writer && opt->checkpoint_every > 0.0 && check_writable(m.cp_path, log) >= STATUS_ERROR) {
+        goto done; /* found at the first checkpoint, after the output was written over */
     }
     if (master_find_origin(&m) != STATUS_OK) {
         goto done;

@@ -219,6 +219,31 @@ def test_unwritable_output(coupler, tmp_path):
     assert p.returncode == 1 and "dir.h5" in p.stderr
 
 
+def test_output_that_is_a_folder_is_refused_before_anything_is_written(coupler, tmp_path):
+    # `-o DIR` said "DIR: cannot create the output file (does the folder exist and is it writable?)"
+    # about a folder that exists and is writable; `-o ''` named no file at all; and a folder in the
+    # checkpoint's place (OUT_checkpoint.h5) was found only at the first checkpoint, after OUT.h5
+    # had been written over ("cannot rename OUT_checkpoint.h5.tmp to OUT_checkpoint.h5: Is a
+    # directory", exit 1, the old OUT.h5 gone). Now each is refused before anything is written.
+    scene = MODELS / "channel_poiseuille.yaml"
+    folder = tmp_path / "outdir"
+    folder.mkdir()
+    p = run("run", scene, "-o", folder, "--steps", "2", "--quiet")
+    assert p.returncode == 1
+    assert f"cannot write {folder}: it is a folder; nothing was written; allowed: a file" in p.stderr, p.stderr
+    assert list(folder.iterdir()) == []
+    p = run("run", scene, "-o", "", "--steps", "2", "--quiet")
+    assert p.returncode == 1 and "the output file name is empty" in p.stderr, p.stderr
+    out = tmp_path / "keep.h5"
+    out.write_bytes(b"precious")
+    (tmp_path / "keep_checkpoint.h5").mkdir()
+    p = run("run", scene, "-o", out, "--steps", "2", "--quiet", "--checkpoint-every", "1e-4")
+    assert p.returncode == 1
+    assert f"cannot write {tmp_path / 'keep_checkpoint.h5'}: it is a folder" in p.stderr, p.stderr
+    assert out.read_bytes() == b"precious"
+    assert not (tmp_path / "keep_checkpoint.h5.tmp").exists()
+
+
 def test_run_never_writes_over_what_it_reads(coupler, tmp_path):
     # `-o scene.yaml` turned the scene into an HDF5 file; `-o cp.h5 --restart cp.h5` emptied the
     # checkpoint to continue from (5.6 MB to 13 kB); `--log-fmi-calls` equal to `-o` left an output
