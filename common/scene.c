@@ -39,6 +39,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 const char *face_type_name(face_type_t t)
 {
@@ -129,6 +130,14 @@ status_t scene_load(const char *path, const char *const *overrides, int noverrid
     if (fp == NULL) {
         scene_report_bad(&c, "", "cannot open the scene file: %s", strerror(errno));
         goto done;
+    }
+    {
+        struct stat sb;
+        if (fstat(fileno(fp), &sb) == 0 && S_ISDIR(sb.st_mode)) {
+            /* libyaml's read of it said "cannot read at byte 0: input error" */
+            scene_report_bad(&c, "", "is a folder, not a scene file; allowed: a YAML scene file (models/README.md)");
+            goto done;
+        }
     }
     {
         /* the nesting first, from the events (scene_yaml_depth_within) */

@@ -214,6 +214,16 @@ def test_cli_usage_errors(coupler, tmp_path):
     assert p.returncode == 1 and "missing.yaml" in p.stderr
 
 
+def test_scene_that_is_a_folder(coupler, tmp_path):
+    # was "error: [scene] DIR: cannot read at byte 0: input error"
+    for cmd in ("check", "run", "export"):
+        args = ["-d", tmp_path / "fmus"] if cmd == "export" else []
+        p = run(cmd, tmp_path, *args)
+        assert p.returncode == 1
+        assert f"error: [scene] {tmp_path}: is a folder, not a scene file; allowed: a YAML scene file" in p.stderr, p.stderr
+    assert not (tmp_path / "fmus").exists()
+
+
 def test_unwritable_output(coupler, tmp_path):
     p = run("run", MODELS / "channel_poiseuille.yaml", "-o", tmp_path / "no" / "such" / "dir.h5", "--steps", "1")
     assert p.returncode == 1 and "dir.h5" in p.stderr
