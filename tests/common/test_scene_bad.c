@@ -256,11 +256,11 @@ static const bad_scene_t CASES[] = {
     {13, "    colour: red", NULL, {NULL}, 1,
      "scene.yaml:13: bodies.0.colour: unknown key (libcyaml: Unexpected key: colour); allowed in "
      "bodies.0: a mapping with the keys name, density (required), motion, velocity, angular_velocity, "
-     "spheres (required)"},
+     "move_with_flow, spheres (required)"},
     {18, "    mass: 1.0", NULL, {NULL}, 1,
      "scene.yaml:18: bodies.1.mass: unknown key (libcyaml: Unexpected key: mass); allowed in bodies.1: a "
-     "mapping with the keys name, density (required), motion, velocity, angular_velocity, spheres "
-     "(required)"},
+     "mapping with the keys name, density (required), motion, velocity, angular_velocity, move_with_flow, "
+     "spheres (required)"},
     {0, NULL, NULL, {"bodies.0.velocity=[nan, 0, 0]"}, 1,
      "scene.yaml (--set bodies.0.velocity=[nan, 0, 0]): bodies.0.velocity = [nan, 0, 0]: component 0 is not a "
      "finite number; allowed: finite numbers"},
