@@ -25,21 +25,30 @@ static void kinematic_velocity(const rigid_body_t *b, const double x[3], double 
     }
 }
 
+int rigid_body_turn(rigid_body_t *b, const double w[3], double h, double m[9])
+{
+    const double wn = rv_norm(w);
+    if (!(wn > 0.0)) {
+        return 0;
+    }
+    const double half = 0.5 * wn * h, sn = sin(half) / wn;
+    const double dq[4] = {cos(half), sn * w[0], sn * w[1], sn * w[2]};
+    double qn[4];
+    rq_mul(dq, b->q, qn);
+    const double n = sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3]);
+    for (int k = 0; k < 4; k++) {
+        b->q[k] = qn[k] / n;
+    }
+    rq_matrix(dq, m);
+    return 1;
+}
+
 void rigid_kinematic_move(rigid_body_t *b, double h)
 {
-    double d[3];
+    double d[3], m[9];
     rv_sub(b->com, b->kp, d);
-    const double wn = rv_norm(b->kw);
-    if (wn > 0.0) {
-        const double half = 0.5 * wn * h, sn = sin(half) / wn;
-        const double dq[4] = {cos(half), sn * b->kw[0], sn * b->kw[1], sn * b->kw[2]};
-        double qn[4], m[9], dn[3];
-        rq_mul(dq, b->q, qn);
-        const double n = sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3]);
-        for (int k = 0; k < 4; k++) {
-            b->q[k] = qn[k] / n;
-        }
-        rq_matrix(dq, m);
+    if (rigid_body_turn(b, b->kw, h, m)) {
+        double dn[3];
         rm_mul(m, d, dn);
         memcpy(d, dn, sizeof d);
     }

@@ -333,18 +333,9 @@ static status_t hold_step(rigid_t *r, double h)
         if (bd->fixed) {
             continue;
         }
-        double w[3], iw[9];
+        double w[3], iw[9], m[9];
         rigid_body_omega(bd, w);
-        const double wn = rv_norm(w);
-        if (wn > 0.0) {
-            const double half = 0.5 * wn * h, s = sin(half) / wn;
-            const double dq[4] = {cos(half), s * w[0], s * w[1], s * w[2]};
-            double qn[4];
-            rq_mul(dq, bd->q, qn);
-            const double n = sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3]);
-            for (int k = 0; k < 4; k++) {
-                bd->q[k] = qn[k] / n;
-            }
+        if (rigid_body_turn(bd, w, h, m)) {
             rigid_body_inertia_world(bd, iw);
             rm_mul(iw, w, bd->l);
         }

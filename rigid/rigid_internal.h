@@ -246,6 +246,10 @@ void rigid_kinematic_advance(rigid_t *r, double h);
 /* Moves one kinematic body on by h (the integrators move them with the free bodies'
  * time: a Verlet drift, each CVODE evaluation at its own t). */
 void rigid_kinematic_move(rigid_body_t *b, double h);
+/* Turns body b exactly by the world angular velocity w over h (its attitude
+ * q premultiplied by the rotation of |w| h about w); m: that rotation's
+ * matrix. Returns 0 and does nothing when w is zero. */
+int rigid_body_turn(rigid_body_t *b, const double w[3], double h, double m[9]);
 /* contact.c: adds contact forces to r->sf/st; x: sphere centres */
 int rigid_contacts(rigid_t *r, const rigid_body_t *bodies, const double (*x)[3], rigid_contact_info_t *worst);
 /* The error message of a fault found at time t (names body, sphere, partner or face, gap). */
