@@ -544,13 +544,17 @@ static status_t write_xmf(h5fields_t *w)
     for (int k = 0; k < w->nsnaps; k++) {
         fprintf(fp, "   <Grid Name=\"step %ld\" GridType=\"Uniform\">\n    <Time Value=\"%.10g\"/>\n", w->steps[k],
                 w->times[k]);
-        /* cell data: the mesh has one node more than cells per axis */
+        /* cell data: the mesh has one node more than cells per axis; the
+         * origin and spacing as doubles (an XML DataItem without a
+         * Precision is a 4-byte float: ParaView read dx 1e-4 m as
+         * 9.99999975e-05 m), written to the last bit */
         fprintf(fp, "    <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"%d %d %d\"/>\n", nz + 1, ny + 1,
                 nx + 1);
         fprintf(fp,
                 "    <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
-                "     <DataItem Dimensions=\"3\" Format=\"XML\">0 0 0</DataItem>\n"
-                "     <DataItem Dimensions=\"3\" Format=\"XML\">%.10g %.10g %.10g</DataItem>\n"
+                "     <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">0 0 0</DataItem>\n"
+                "     <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">%.17g %.17g "
+                "%.17g</DataItem>\n"
                 "    </Geometry>\n",
                 w->dx, w->dx, w->dx);
         static const char *names[3] = {"density", "velocity", "flags"};

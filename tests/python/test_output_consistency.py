@@ -1,6 +1,8 @@
 """What the output says against what the README says it holds (README "Output",
 "Release"): small scenes of a few seconds each, checked the way a user reads
 the file with h5py."""
+import xml.etree.ElementTree as ET
+
 import h5py
 import numpy as np
 
@@ -46,3 +48,31 @@ def test_held_connections_carry_nothing_from_the_first_row(coupler, tmp_path):
         assert np.all(fc[held_rows:] > 0.0), fc            # free: loaded
         if release == 0.0:
             assert abs(fc[0] - centripetal) < 1e-6 * centripetal, (fc[0], centripetal)
+
+
+XDMF_PRECISION = {"Float": {None: 4, "4": 4, "8": 8}}
+
+
+def test_xdmf_geometry_is_the_grid_in_double(coupler, tmp_path):
+    # OUT_fields.xmf gave the origin and spacing as XML DataItems without NumberType and
+    # Precision, which XDMF reads as 4-byte floats, printed with 10 digits: VTK's XDMF reader
+    # (ParaView's) made dx = 1e-4 m a spacing of 9.99999975e-05 m and the box 3.1999999e-3 m
+    # long. Now Float of Precision 8, to the last bit: as read, equal to the file's dx.
+    scene = tmp_path / "dimer.yaml"
+    dx = 1.0e-4 / 3.0  # not a short decimal either
+    scene.write_text(DIMER.replace("dx: 1.0e-4", f"dx: {dx!r}").replace("1.6e-3, 1.6e-3, 1.6e-3",
+                                                                        f"{48 * dx!r}, {48 * dx!r}, {48 * dx!r}"))
+    out = tmp_path / "g.h5"
+    p = run("run", scene, "-o", out, "--quiet", "--steps", "1", "--set", "run.fields=true")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f:
+        fdx = float(f.attrs["dx"])
+    root = ET.parse(tmp_path / "g_fields.xmf").getroot()
+    grids = root.findall(".//Grid[@GridType='Uniform']")
+    assert len(grids) == 1  # step 0
+    for g in grids:
+        origin, spacing = g.find("Geometry").findall("DataItem")
+        for item, want in ((origin, [0.0] * 3), (spacing, [fdx] * 3)):
+            assert item.get("NumberType", "Float") == "Float"
+            assert XDMF_PRECISION["Float"][item.get("Precision")] == 8, ET.tostring(item)
+            assert [float(v) for v in item.text.split()] == want
