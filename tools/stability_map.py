@@ -748,6 +748,12 @@ def _where(c):
     return "%s %s, %s, %s" % (c.group, p["variant"], p["integrator"], p["coupling"])
 
 
+def figure_name(slice_name):
+    """The PNG of a free-sphere slice: "velocity x tau" -> stability_velocity_tau.png, no blanks
+    (a Markdown image link ends at the first blank)."""
+    return "stability_" + re.sub(r"\s+", "_", slice_name.replace(" x ", "_")) + ".png"
+
+
 def markdown(cases, figures, quick, wall):
     free = [c for c in cases if c.group.startswith("free")]
     walls = [c for c in cases if not c.group.startswith("free")]
@@ -959,7 +965,7 @@ def run_map(outdir, quick, coupler=COUPLER, jobs=2):
              "tau 0.6, u = 0.05"),
             (FLOW_SLICE, "tau", "u", "tau", "wall speed of the shear flow (cells per step)",
              "Couette flow, free sphere of ratio 1.2, radius 3")]:
-        name = "stability_" + slice_name.replace(" x ", "_") + ".png"
+        name = figure_name(slice_name)
         free_figure(os.path.join(outdir, name), cases, slice_name, xkey, ykey, xl, yl, fixed)
         figures.append(name)
     contact_figure(os.path.join(outdir, "stability_contacts.png"), cases)

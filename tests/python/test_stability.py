@@ -17,6 +17,7 @@ verdicts are known, asserted from the coupler's messages exactly as the map read
 About 10 s on 2 cores (each run a few hundred steps on at most 24^3 cells; the last test draws
 the map's figures from made-up outcomes).
 """
+import re
 import sys
 
 import pytest
@@ -129,3 +130,17 @@ def test_map_writes_report_files(tmp_path, monkeypatch):
     assert all("(%s)" % f in md for f in r["figures"])
     assert "rigid.substeps=40: stable" in md and "| drop | detected |" in md
     assert "(none offered; README:) fluid.dx / 2" in md and "velocity / 2: detected (moves)" in md
+
+
+def test_report_figure_links_have_no_blanks():
+    # the fourth slice, "flow velocity x tau", was drawn to "stability_flow velocity_tau.png" and
+    # linked as ![...](stability_flow velocity_tau.png): a Markdown image link ends at the blank, so
+    # report.md showed the text, not the figure. Now stability_flow_velocity_tau.png, the other
+    # three names unchanged.
+    names = [sm.figure_name(s) for s in ("ratio x tau", "velocity x tau", "radius x ratio", sm.FLOW_SLICE)]
+    assert names == ["stability_ratio_tau.png", "stability_velocity_tau.png", "stability_radius_ratio.png",
+                     "stability_flow_velocity_tau.png"]
+    md = sm.markdown([], names + ["stability_contacts.png"], True, 0.0)
+    links = re.findall(r"!\[[^\]]*\]\(([^)]*)\)", md)
+    assert links == names + ["stability_contacts.png"]
+    assert all(re.fullmatch(r"[\w.]+", link) for link in links), links
