@@ -188,7 +188,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     /* connection loads at t0 (with zero hydrodynamic load); none while the
      * bodies are held from t0 on (release_time, hold_step: the connections
      * carry nothing), so the first output row agrees with the held ones */
-    if (rigid_forces(r, r->bodies, 0.0, NULL) >= 0 && !(cfg->release_time > cfg->t0)) {
+    if (rigid_forces(r, r->bodies, 0.0, NULL) >= 0 && !(cfg->release_time > 0.0 && cfg->release_time > cfg->t0)) {
         rigid_connections_eval(r);
     }
 cleanup:
