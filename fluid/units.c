@@ -33,7 +33,10 @@ status_t units_derive(const scene_t *s, const log_t *log, units_t *u)
         u->n[a] = (int)r;
     }
     u->nu_lat = (u->tau - 0.5) / 3.0;
-    u->dt = u->nu_lat * u->dx * u->dx / u->nu;
+    /* the scene's step itself (a whole number of ns, tau derived from it):
+     * recomputed from tau it came out an ulp off, and the snapshot times
+     * (step x dt) an ulp off the master's rows */
+    u->dt = s->fluid.dt > 0.0 ? s->fluid.dt : u->nu_lat * u->dx * u->dx / u->nu;
     u->omega_plus = 1.0 / u->tau;
     u->omega_minus = s->fluid.collision == COLLISION_TRT ? kernel_omega_minus(u->omega_plus, s->fluid.magic)
                                                          : u->omega_plus;

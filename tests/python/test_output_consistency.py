@@ -76,3 +76,20 @@ def test_xdmf_geometry_is_the_grid_in_double(coupler, tmp_path):
             assert item.get("NumberType", "Float") == "Float"
             assert XDMF_PRECISION["Float"][item.get("Precision")] == 8, ET.tostring(item)
             assert [float(v) for v in item.text.split()] == want
+
+
+def test_snapshot_times_are_the_rows_times(coupler, tmp_path):
+    # A snapshot's `time` was step x dt with dt recomputed from tau, an ulp off the scene's
+    # whole-ns step: 0.020000000000000004 against the row's 0.02, so a user matching a
+    # snapshot to its output row by time found none. Now the fluid steps with the scene's dt.
+    scene = tmp_path / "dimer.yaml"
+    scene.write_text(DIMER)
+    out = tmp_path / "t.h5"
+    p = run("run", scene, "-o", out, "--quiet", "--set", "run.fields=true", "--set", "run.field_interval=1e-9",
+            "--set", "run.output_interval=1e-9")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(out, "r") as f, h5py.File(tmp_path / "t_fields.h5", "r") as g:
+        rows = f["/time"][()].tolist()
+        snaps = [g["/fields"][k].attrs["time"] for k in g["/fields"]]
+    assert len(snaps) == len(rows) > 3
+    assert snaps == rows
