@@ -65,17 +65,8 @@ void scene_start_with_flow(scene_t *s)
         if (!body->move_with_flow || body->motion != MOTION_FREE || body->nspheres == 0) {
             continue;
         }
-        double c[3] = {0.0, 0.0, 0.0}, vol = 0.0;
-        for (int k = 0; k < body->nspheres; k++) {
-            const double r3 = body->spheres[k].radius * body->spheres[k].radius * body->spheres[k].radius;
-            for (int a = 0; a < 3; a++) {
-                c[a] += r3 * body->spheres[k].center[a];
-            }
-            vol += r3;
-        }
-        for (int a = 0; a < 3; a++) {
-            c[a] /= vol;
-        }
+        double c[3];
+        scene_body_pivot(body, c);
         scene_initial_rigid_motion(s, c, body->velocity, body->angular_velocity);
     }
 }

@@ -51,6 +51,22 @@ const char *face_type_name(face_type_t t)
     return "unknown";
 }
 
+void scene_body_pivot(const scene_body_t *b, double c[3])
+{
+    double vol = 0.0;
+    c[0] = c[1] = c[2] = 0.0;
+    for (int i = 0; i < b->nspheres; i++) {
+        const double r3 = pow(b->spheres[i].radius, 3.0);
+        for (int a = 0; a < 3; a++) {
+            c[a] += r3 * b->spheres[i].center[a];
+        }
+        vol += r3;
+    }
+    for (int a = 0; a < 3; a++) {
+        c[a] /= vol;
+    }
+}
+
 int scene_whole_ns(double t, long long *ns)
 {
     const double n = nearbyint(t * 1e9);

@@ -176,6 +176,10 @@ status_t scene_load(const char *path, const char *const *overrides, int noverrid
 void scene_free(scene_t *s);
 int scene_total_spheres(const scene_t *s);
 const char *face_type_name(face_type_t t);
+/* A body's pivot (m): the centroid of its sphere centres weighted by r^3,
+ * about which the fluid turns a prescribed body and at which a body that
+ * moves with the flow takes the flow's motion. */
+void scene_body_pivot(const scene_body_t *b, double c[3]);
 
 /* Time steps in whole nanoseconds, for masters that count time in integer ns
  * (libcosim / OSP). When the scene gives fluid.tau, scene_load rounds

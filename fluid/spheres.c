@@ -169,17 +169,8 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     int k = 0;
     for (int b = 0; b < s->nbodies; b++) {
         const scene_body_t *body = &s->bodies[b];
-        double cb[3] = {0.0, 0.0, 0.0}, vol = 0.0;
-        for (int i = 0; i < body->nspheres; i++) {
-            const double r3 = pow(body->spheres[i].radius, 3.0);
-            for (int a = 0; a < 3; a++) {
-                cb[a] += r3 * body->spheres[i].center[a];
-            }
-            vol += r3;
-        }
-        for (int a = 0; a < 3; a++) {
-            cb[a] /= vol;
-        }
+        double cb[3];
+        scene_body_pivot(body, cb);
         const body_coupling_t bc = coupling_of_body(s, b);
         const int averaging = bc.averaging;
         const double kappa_risky =

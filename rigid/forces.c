@@ -14,17 +14,6 @@
 #include <math.h>
 #include <string.h>
 
-/* A kinematic body's velocity at the world point x: kv + kw x (x - kp). */
-static void kinematic_velocity(const rigid_body_t *b, const double x[3], double v[3])
-{
-    double d[3], u[3];
-    rv_sub(x, b->kp, d);
-    rv_cross(b->kw, d, u);
-    for (int k = 0; k < 3; k++) {
-        v[k] = b->kv[k] + u[k];
-    }
-}
-
 int rigid_body_turn(rigid_body_t *b, const double w[3], double h, double m[9])
 {
     const double wn = rv_norm(w);
@@ -70,11 +59,15 @@ void rigid_kinematic_advance(rigid_t *r, double h)
 void rigid_body_point_velocity(const rigid_body_t *b, const double a[3], double v[3])
 {
     if (b->kinematic) {
-        double x[3];
+        /* its pivot's velocity and the turn about the pivot: kv + kw x (x - kp) */
+        double d[3], u[3];
         for (int k = 0; k < 3; k++) {
-            x[k] = b->com[k] + a[k];
+            d[k] = b->com[k] + a[k] - b->kp[k];
         }
-        kinematic_velocity(b, x, v);
+        rv_cross(b->kw, d, u);
+        for (int k = 0; k < 3; k++) {
+            v[k] = b->kv[k] + u[k];
+        }
         return;
     }
     if (b->fixed) {
@@ -109,11 +102,7 @@ void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, dou
         }
     }
     if (v != NULL && b->kinematic) {
-        double xw[3];
-        for (int a = 0; a < 3; a++) {
-            xw[a] = b->com[a] + d[a];
-        }
-        kinematic_velocity(b, xw, v);
+        rigid_body_point_velocity(b, d, v);
     } else if (v != NULL) {
         double u[3];
         rv_cross(om, d, u);

@@ -320,6 +320,18 @@ static void note_open_faces(rigid_t *r)
     }
 }
 
+/* The forces at the state a step ended in (r->t already advanced): a
+ * non-finite force or a fault (a deep overlap, a wall without a contact
+ * model) stops the run. */
+static status_t forces_after_step(rigid_t *r, double h_kick)
+{
+    const int rc = rigid_forces(r, r->bodies, h_kick, NULL);
+    if (rc < 0) {
+        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "non-finite force at t=%.9g s after the step", r->t);
+    }
+    return rc > 0 ? rigid_fault_report(r, &r->fault, r->t) : STATUS_OK;
+}
+
 /* A step before the release time (rigid_config_t.release_time): every free
  * body translates with v and turns with its angular velocity w about the
  * centre of mass, both kept constant (the rotation is exact: q turned by
@@ -355,12 +367,9 @@ static status_t hold_step(rigid_t *r, double h)
     r->have_prev = 0;
     r->h_prev = h;
     r->t += h;
-    int rc = rigid_forces(r, r->bodies, 0.0, NULL);
-    if (rc < 0) {
-        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "non-finite force at t=%.9g s after the step", r->t);
-    }
-    if (rc > 0) {
-        return rigid_fault_report(r, &r->fault, r->t);
+    status_t st = forces_after_step(r, 0.0);
+    if (st != STATUS_OK) {
+        return st;
     }
     for (int k = 0; k < r->nconn; k++) {
         memset(r->conn[k].force, 0, sizeof r->conn[k].force);
@@ -402,12 +411,8 @@ status_t rigid_step(rigid_t *r, double h)
     r->have_prev = 1;
     r->h_prev = h;
     r->t += h;
-    int rc = rigid_forces(r, r->bodies, rigid_lub_kick(r, h), NULL);
-    if (rc < 0) {
-        return log_msg(&r->log, STATUS_ERROR, RIGID_CAT, "non-finite force at t=%.9g s after the step", r->t);
-    }
-    if (rc > 0) {
-        return rigid_fault_report(r, &r->fault, r->t);
+    if ((st = forces_after_step(r, rigid_lub_kick(r, h))) != STATUS_OK) {
+        return st;
     }
     rigid_connections_eval(r);
     int broke = 0, stuck = 0;
