@@ -12,7 +12,8 @@ C master (coupler/run.c, DESIGN section 2) and writes the same HDF5 layout
   per communication step n, t = n h (h = K LBM steps, from the step counter):
     rigid kinematics -> fluid inputs; fluid doStep(t, h);
     fluid forces/torques -> rigid inputs; rigid doStep(t, h)
-  output rows at t >= k * run.output_interval and at the end.
+  output rows at t >= k * run.output_interval and at the end; the last step
+  is shorter when K does not divide the LBM steps to run.end_time.
 
 The FMUs are exported from the scene with `build/coupler export` (the same
 --set options) unless given. Every input is connected to the output of the
@@ -372,7 +373,10 @@ def run(args):
         h = k * dt
         run_cfg = scene["run"]
         t_end_scene = float(run_cfg["end_time"])
-        nsteps = args.steps if args.steps else math.ceil(t_end_scene / h - 1e-9)
+        # the LBM steps of the run; the last communication step takes the rest
+        # when K does not divide them (coupler/run.c)
+        n_lbm = args.steps * k if args.steps else math.ceil(t_end_scene / dt - 1e-9)
+        nsteps, short_last = -(-n_lbm // k), n_lbm % k
         oi = float(run_cfg.get("output_interval", t_end_scene / 100.0))
         dx, tau, grid = lattice(scene, dt)
         fields_rel = None
@@ -381,7 +385,7 @@ def run(args):
             stem = os.path.splitext(args.output)[0]
             fields_path = stem + "_fields.h5"
             fields_rel = os.path.basename(fields_path)
-        t_end = nsteps * h
+        t_end = n_lbm * dt if short_last else nsteps * h
         wall0 = wallclock.perf_counter()
         fluid.instantiate(0.0, t_end)
         if fields_path is not None:
@@ -397,8 +401,8 @@ def run(args):
         next_out = 0
         row = None
         for n in range(nsteps + 1):
-            t = n * h
             last = n == nsteps
+            t = t_end if last else n * h
             if last or t >= next_out * oi - 1e-9 * dt:
                 row = reader.read()
                 out.row(t, row)
@@ -410,11 +414,12 @@ def run(args):
             progress.show(n, t, fluid.step_seconds)
             if rigid and src_f:
                 fluid.set_real(dst_f, rigid.get_real(src_f))
-            fluid.do_step(t, h)
+            hn = t_end - t if n + 1 == nsteps else h
+            fluid.do_step(t, hn)
             if rigid:
                 if src_r:
                     rigid.set_real(dst_r, fluid.get_real(src_r))
-                rigid.do_step(t, h)
+                rigid.do_step(t, hn)
         wall = wallclock.perf_counter() - wall0
         a = out.f.attrs
         wf = fluid.step_seconds
@@ -422,11 +427,13 @@ def run(args):
         a["wall_time_fluid"], a["wall_time_rigid"] = wf, wr
         a["wall_time_master"], a["wall_time_total"] = wall - wf - wr, wall
         a["exchange_every"], a["communication_step"] = float(k), h
-        a["mlups"] = float(np.prod(grid)) * k * nsteps / max(wf, 1e-9) / 1e6
+        a["mlups"] = float(np.prod(grid)) * n_lbm / max(wf, 1e-9) / 1e6
         a["fmi_calls_fluid"] = np.bytes_(json.dumps(fluid.calls))
         if rigid:
             a["fmi_calls_rigid"] = np.bytes_(json.dumps(rigid.calls))
-        print(f"{args.scene}: {nsteps} communication steps of {k} LBM step(s) (h = {h:.6g} s), t = {t_end:.6g} s")
+        last_of = f", the last of {short_last}" if short_last else ""
+        print(f"{args.scene}: {nsteps} communication steps of {k} LBM step(s){last_of} (h = {h:.6g} s), "
+              f"t = {t_end:.6g} s")
         print(f"  wall time {wall:.3f} s: fluid {wf:.3f} s, rigid {wr:.3f} s")
         print(f"  FMI calls: fluid {sum(fluid.calls.values())} {json.dumps(fluid.calls)}"
               + (f", rigid {sum(rigid.calls.values())} {json.dumps(rigid.calls)}" if rigid else ""))

@@ -13,7 +13,8 @@
  *      output folder must be writable; then the FMUs are initialised and the
  *      output file is created.
  * Loop, per communication step n (h = K LBM steps, t = t0 + n h from the
- * step counter, never accumulated):
+ * step counter, never accumulated; the last step is shorter when K does not
+ * divide the LBM steps to run.end_time):
  *   rigid kinematics -> fluid inputs; fluid fmi2DoStep(t, h);
  *   fluid forces/torques -> rigid inputs; rigid fmi2DoStep(t, h)
  * (the rigid sub-cycles internally, rigid.substeps). Output rows at t >=
@@ -366,8 +367,12 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     /* the LBM step as the FMUs' DefaultExperiment states it (scene fluid.dt),
      * so that any master (fmpy_master.py) computes the same h */
     const double dt = scene->fluid.dt, h = k_lbm * dt;
-    const long nsteps = opt->steps > 0 ? opt->steps : (long)ceil(scene->run.end_time / h - 1e-9);
-    const double t_end = nsteps * h;
+    /* the LBM steps of the run (--steps counts communication steps); when K
+     * does not divide the steps to run.end_time, the last communication step
+     * takes the rest (short_last LBM steps), so that the run ends at end_time */
+    const long n_lbm = opt->steps > 0 ? opt->steps * (long)k_lbm : (long)ceil(scene->run.end_time / dt - 1e-9);
+    const long nsteps = (n_lbm + k_lbm - 1) / k_lbm, short_last = n_lbm % k_lbm;
+    const double t_end = short_last != 0 ? n_lbm * dt : nsteps * h;
     if (opt->checkpoint_every > 0.0 && opt->checkpoint_every < h * (1.0 - 1e-9)) {
         log_msg(log, STATUS_ERROR, CAT,
                 "--checkpoint-every %g s is shorter than one communication step (%g s); allowed: at least %g s",
@@ -575,8 +580,8 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     const double wstart = omp_get_wtime() - wall0; /* s: export, load, instantiate, initialise */
     double wout = 0.0; /* s: reading the outputs of a row (the fluid totals included) and writing rows */
     for (long n = n0;; n++) {
-        const double t = n * h;
         const int last = n == nsteps;
+        const double t = last ? t_end : n * h;
         /* the last step's row, unless a restart begins at it and its
          * checkpoint has that row already (a run cut short at a checkpoint
          * restarted with that --steps wrote the row twice) */
@@ -641,7 +646,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
          * continued with a larger --steps (not in --checkpoint-test's runs,
          * and not when this run began at its last step: that checkpoint is
          * the one it read) */
-        const int cp_end = last && every > 0.0 && n > n0 && cp.n1 < 0;
+        const int cp_end = last && every > 0.0 && n > n0 && cp.n1 < 0 && short_last == 0;
         if ((!last && (cp_due || stop != 0)) || cp_end) {
             point.n = n;
             point.next_out = next_out;
@@ -670,7 +675,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         if (last) {
             break;
         }
-        if (master_step(&m, t, h) >= STATUS_ERROR) {
+        if (master_step(&m, t, n + 1 == nsteps ? t_end - t : h) >= STATUS_ERROR) {
             log_msg(log, STATUS_ERROR, CAT, "communication step %ld from t = %.9g s failed", n, t);
             goto stopped;
         }
@@ -678,7 +683,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         if (tty && (w1 - last_print > 0.5)) {
             const double el = w1 - wall0, eta = el / (n + 1 - n0) * (nsteps - n - 1);
             fprintf(stderr, "\rstep %ld/%ld  t = %.4g s  wall %.1f s  ETA %.1f s  %.1f MLUPS   ", n + 1, nsteps,
-                    t + h, el, eta, ncells * k_lbm * (n + 1 - n0) / fmax(fmu_step_seconds(m.fluid), 1e-9) / 1e6);
+                    n + 1 == nsteps ? t_end : t + h, el, eta, ncells * k_lbm * (n + 1 - n0) / fmax(fmu_step_seconds(m.fluid), 1e-9) / 1e6);
             last_print = w1;
         }
     }
@@ -712,7 +717,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         summary_calls_json(m.rigid, jr, sizeof jr);
     }
     const long cf = fmu_calls_total(m.fluid), cr = m.rigid != NULL ? fmu_calls_total(m.rigid) : 0;
-    const double mlups = ncells * k_lbm * (double)nsteps / fmax(wf, 1e-9) / 1e6;
+    const double mlups = ncells * (double)n_lbm / fmax(wf, 1e-9) / 1e6;
     if (opt->times != NULL) {
         *opt->times = (run_times_t){wf, wr, wall - wf - wr, wstart, wout, wall};
     }
@@ -731,8 +736,13 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     if (st != STATUS_OK) {
         goto done;
     }
-    printf("%s: %ld communication steps of %d LBM step%s (h = %.6g s), t = %.6g s, %d x %d x %d cells, tau %.4g\n",
-           scene->path, nsteps, k_lbm, k_lbm > 1 ? "s" : "", h, t_end, m.un.n[0], m.un.n[1], m.un.n[2], m.un.tau);
+    char last_of[64] = "";
+    if (short_last != 0) {
+        snprintf(last_of, sizeof last_of, ", the last of %ld", short_last);
+    }
+    printf("%s: %ld communication steps of %d LBM step%s%s (h = %.6g s), t = %.6g s, %d x %d x %d cells, tau %.4g\n",
+           scene->path, nsteps, k_lbm, k_lbm > 1 ? "s" : "", last_of, h, t_end, m.un.n[0], m.un.n[1], m.un.n[2],
+           m.un.tau);
     printf("  wall time %.3f s: fluid %.3f s (%.1f MLUPS), rigid %.3f s, master and output %.3f s (of it rows %.3f s)\n",
            wall, wf, mlups, wr, wall - wf - wr, wout);
     printf("  FMI calls: fluid %ld %s", cf, jf);
@@ -759,7 +769,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         }
     }
     printf("  output %s%s%s\n", opt->output, m.fields[0] != '\0' ? ", fields " : "", m.fields);
-    if (opt->checkpoint_every > 0.0 && nsteps > restart.step && cp.n1 < 0) {
+    if (opt->checkpoint_every > 0.0 && nsteps > restart.step && cp.n1 < 0 && short_last == 0) {
         printf("  checkpoint %s at the last step (%ld): to go on, `coupler run %s [the same --set options] --restart "
                "%s -o %s --steps N` with N > %ld\n",
                m.cp_path, nsteps, scene->path, m.cp_path, opt->output, nsteps);

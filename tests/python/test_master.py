@@ -170,6 +170,38 @@ def test_log_fmi_calls_and_exchange_every(coupler, tmp_path):
     assert any(l.startswith("fluid.fmu fmi2SetReal(vr=[") and "value=[" in l for l in lines)
 
 
+def test_exchange_every_ends_at_end_time_with_a_shorter_last_step(coupler, tmp_path):
+    """23 LBM steps to run.end_time with --exchange-every 5: four steps of 5 and a last of 3, so
+    the run ends at end_time (it took a fifth whole step to 25 LBM steps, past it). Around a fixed
+    sphere the fluid does not depend on the cadence: its last row equals that of --exchange-every
+    1 bit for bit; the fmpy master takes the same steps."""
+    s = scene(tmp_path, "fixed", SINGLE.format(motion="\n    motion: fixed").replace("end_time: 5.0e-4",
+                                                                                   "end_time: 2.3e-4"))
+    outs = {k: tmp_path / f"k{k}.h5" for k in (1, 5)}
+    log = tmp_path / "calls.log"
+    for k, out in outs.items():
+        p = run("run", s, "-o", out, "--quiet", "--exchange-every", str(k), "--log-fmi-calls", log)
+        assert p.returncode == 0, p.stderr
+        if k == 5:
+            assert "5 communication steps of 5 LBM steps, the last of 3" in p.stdout, p.stdout
+    steps = [float(l.split("communicationStepSize=")[1].split(",")[0])
+             for l in log.read_text().splitlines() if l.startswith("fluid.fmu fmi2DoStep(")]
+    with h5py.File(outs[1], "r") as a, h5py.File(outs[5], "r") as b:
+        dt = a.attrs["communication_step"]
+        assert steps == pytest.approx([5 * dt] * 4 + [3 * dt], rel=1e-9)
+        assert a["/time"][-1] == b["/time"][-1] == pytest.approx(23 * dt, rel=1e-12)
+        for k in ("/fluid/mass", "/fluid/momentum", "/fluid/kinetic_energy", "/spheres/force"):
+            assert np.array_equal(a[k][-1], b[k][-1]), k
+    py_out = tmp_path / "py.h5"
+    q = subprocess.run([str(PY), str(ROOT / "coupler" / "fmpy_master.py"), str(s), "-o", str(py_out),
+                        "--exchange-every", "5"],
+                       capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS="2"), timeout=600)
+    assert q.returncode == 0, q.stderr
+    with h5py.File(outs[5], "r") as c, h5py.File(py_out, "r") as py:
+        assert np.array_equal(c["/time"][()], py["/time"][()])
+        assert np.array_equal(c["/spheres/force"][()], py["/spheres/force"][()])
+
+
 # --- fmpy master -------------------------------------------------------------------
 
 
