@@ -371,17 +371,19 @@ static status_t open_file(const char *path, const int n[3], double dx, const h5f
     if (st == STATUS_OK && comm != MPI_COMM_NULL) {
         st = check_tiling(w); /* the same sum on every process */
     }
-    if (st == STATUS_OK && !resume) {
+    if (st == STATUS_OK) {
         /* asked first, by one process: HDF5's create would empty a file that
-         * another process holds open before finding its lock */
+         * another process holds open before finding its lock, and its open
+         * (resume) shares a file this process has open already: another FMU
+         * instance's, which both would then write */
         int rank = 0;
         if (comm != MPI_COMM_NULL) {
             MPI_Comm_rank(comm, &rank);
         }
         if (rank == 0 && file_held(path)) {
             st = log_msg(log, STATUS_ERROR, "fields",
-                         "%s: another process holds the field file open (a viewer, or the ranks of a stopped run?); "
-                         "it was left as it is",
+                         "%s: another process holds the field file open (a viewer, or the ranks of a stopped run?), "
+                         "or another FMU instance in this one writes it; it was left as it is",
                          path);
         }
         st = agree(w, st, "checking the field file");

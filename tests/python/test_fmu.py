@@ -929,3 +929,32 @@ def test_reset_gives_string_parameters_their_start_value(coupler, tmp_path):
     import h5py
     with h5py.File(h5, "r") as h:
         assert sorted(h["/fields"].keys()) == ["000000", "000002", "000004"]
+
+
+def test_field_file_of_another_instance_is_refused_also_to_resume(coupler, tmp_path):
+    """Two fluid instances in one process (FMI: independent) given the same field file. A second
+    output.fields was refused (the file is held open), but output.fields_resume was taken: HDF5 hands
+    a process the file it has open already, so the second instance wrote into the first one's file
+    (a snapshot of its step 1 among the first's 0, 2, 4). Now the resume is refused too, before the
+    file is opened, and the first instance's file holds its own snapshots only."""
+    text = SCENE.format(motion="\n    motion: fixed").replace(
+        "output_interval: 1.0e-4}", "output_interval: 1.0e-4, fields: true, field_interval: 2.0e-5}")
+    d, _ = export(tmp_path, "fields_shared", text)
+    h5 = tmp_path / "shared.h5"
+    a = Slave(d / "fluid.fmu", tmp_path, name="a")
+    a.fmu.setString([a.vr["output.fields"]], [str(h5)])
+    a.init()
+    for k, key in enumerate(("output.fields", "output.fields_resume")):
+        b = Slave(d / "fluid.fmu", tmp_path, name=f"b{k}")
+        b.fmu.setString([b.vr[key]], [str(h5)])
+        b.fmu.setupExperiment(startTime=0.0)
+        b.fmu.enterInitializationMode()
+        b.fails(b.fmu.exitInitializationMode, expect="holds the field file open")
+        b.close()
+    for n in range(5):
+        a.fmu.doStep(n * DT, DT)
+    a.fmu.terminate()
+    a.close()
+    import h5py
+    with h5py.File(h5, "r") as h:
+        assert sorted(h["/fields"].keys()) == ["000000", "000002", "000004"]
