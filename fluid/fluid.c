@@ -628,6 +628,11 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
         cn[a] = c[a] / u->dx + 0.5;
         double d = cn[a] - p->c[a];
         if (fl->spheres.periodic[a]) {
+            /* the move to where the sphere is put, wrapped (exact): from the
+             * unwrapped input the nearest image is lost to round-off once it
+             * is far out (1e20 cells: a jump to x = 0 measured as none) */
+            cn[a] = 0.5 + fmod(fmod(cn[a] - 0.5, fl->d.N[a]) + fl->d.N[a], fl->d.N[a]);
+            d = cn[a] - p->c[a];
             d -= fl->d.N[a] * floor(d / fl->d.N[a] + 0.5);
         }
         moved += d * d;
@@ -684,12 +689,9 @@ status_t fluid_set_sphere(fluid_t *fl, int i, const double c[3], const double v[
                        (p->c[2] - 0.5) * dx, speed * u->dx / u->dt, why);
     }
     for (int a = 0; a < 3; a++) {
-        p->c[a] = cn[a];
+        p->c[a] = cn[a]; /* wrapped on periodic axes */
         p->v[a] = v[a] * u->dt / u->dx;
         p->w[a] = w[a] * u->dt;
-        if (fl->spheres.periodic[a]) {
-            p->c[a] = 0.5 + fmod(fmod(p->c[a] - 0.5, fl->d.N[a]) + fl->d.N[a], fl->d.N[a]);
-        }
     }
     return STATUS_OK;
 }

@@ -136,6 +136,14 @@ static void test_sphere_speed_limits(void)
     double c1[3], v1[3], w1[3];
     fluid_get_sphere(fl, 0, c1, v1, w1);
     CU_ASSERT_DOUBLE_EQUAL(c1[0], 8.55, 1e-12);
+    /* far out on the periodic x axis: 1e20 cells is a multiple of 16 in a
+     * double, so the sphere would wrap to x = 0, 7.45 cells away (it was
+     * taken: the move was measured before the wrap, to round-off of 1e20) */
+    const double far[3] = {1e20, 8.0, 8.0};
+    CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, far, v0, w0), STATUS_ERROR);
+    CU_ASSERT(strstr(tl.last, "sphere 0 moves 7.45 cells") != NULL);
+    fluid_get_sphere(fl, 0, c1, v1, w1);
+    CU_ASSERT_DOUBLE_EQUAL(c1[0], 8.55, 1e-12);
     /* a velocity above half a cell per step is refused too (0.6 cells) */
     const double vfast[3] = {0.6, 0, 0};
     CU_ASSERT_EQUAL(fluid_set_sphere(fl, 0, c1, vfast, w0), STATUS_ERROR);
