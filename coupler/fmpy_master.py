@@ -414,7 +414,7 @@ def run(args):
             progress.show(n, t, fluid.step_seconds)
             if rigid and src_f:
                 fluid.set_real(dst_f, rigid.get_real(src_f))
-            hn = t_end - t if n + 1 == nsteps else h
+            hn = t_end - t if short_last and n + 1 == nsteps else h
             fluid.do_step(t, hn)
             if rigid:
                 if src_r:

@@ -675,7 +675,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         if (last) {
             break;
         }
-        if (master_step(&m, t, n + 1 == nsteps ? t_end - t : h) >= STATUS_ERROR) {
+        if (master_step(&m, t, short_last != 0 && n + 1 == nsteps ? t_end - t : h) >= STATUS_ERROR) {
             log_msg(log, STATUS_ERROR, CAT, "communication step %ld from t = %.9g s failed", n, t);
             goto stopped;
         }
