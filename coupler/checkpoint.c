@@ -9,7 +9,9 @@
  *                    h (s), wall [3] (s), ranks (int64), decomposition
  *                    [3] (int64: blocks along x, y, z)
  *   /fluid_state/K   uint8 [size]   fmi2SerializeFMUstate of the fluid FMU of
- *                                   rank K = 0 .. ranks - 1 (its block)
+ *                                   rank K = 0 .. ranks - 1 (its block); this,
+ *                                   the rigid state and /settle in chunks with
+ *                                   HDF5's Fletcher-32 checksum
  *   /rigid_state     uint8 [size]   the same of the rigid FMU (when there is one)
  *   /settle/{time,velocity}  double [n]  settling-summary history (when kept)
  *   /output/...      the output file's time series as far as written (the
@@ -162,14 +164,28 @@ static int get_long(hid_t obj, const char *name, long *v)
     return ok;
 }
 
+/* values per chunk of an array: a chunk's checksum covers at most this many */
+#define ARRAY_CHUNK ((hsize_t)1 << 22)
+
+/* A 1-D dataset of n values, in chunks that HDF5 checksums (Fletcher-32
+ * filter): a read of a damaged chunk fails (get_array) instead of handing
+ * a restart the changed bytes (a byte flipped in a fluid state's
+ * populations was restored silently: the state's own header checks only
+ * its header). */
 static int put_array(hid_t file, const char *name, hid_t type, const void *v, hsize_t n)
 {
     hid_t space = H5Screate_simple(1, &n, NULL), lcpl = H5Pcreate(H5P_LINK_CREATE), d = -1;
-    int ok = space >= 0 && lcpl >= 0 && H5Pset_create_intermediate_group(lcpl, 1) >= 0 &&
-             (d = H5Dcreate2(file, name, type, space, lcpl, H5P_DEFAULT, H5P_DEFAULT)) >= 0 &&
+    hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    const hsize_t chunk = n < ARRAY_CHUNK ? n : ARRAY_CHUNK;
+    int ok = space >= 0 && lcpl >= 0 && dcpl >= 0 && H5Pset_create_intermediate_group(lcpl, 1) >= 0 &&
+             (n == 0 || (H5Pset_chunk(dcpl, 1, &chunk) >= 0 && H5Pset_fletcher32(dcpl) >= 0)) &&
+             (d = H5Dcreate2(file, name, type, space, lcpl, dcpl, H5P_DEFAULT)) >= 0 &&
              (n == 0 || H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v) >= 0);
     ok = ok || put_failed();
     ok = (d < 0 || H5Dclose(d) >= 0 || put_failed()) && ok;
+    if (dcpl >= 0) {
+        H5Pclose(dcpl);
+    }
     if (lcpl >= 0) {
         H5Pclose(lcpl);
     }
@@ -179,9 +195,14 @@ static int put_array(hid_t file, const char *name, hid_t type, const void *v, hs
     return ok;
 }
 
-/* Reads a 1-D dataset of elem-byte values into a malloc'ed array (*n values). */
+/* Why the last get_array failed (h5_cause): a damaged chunk's checksum. */
+static char get_cause[160];
+
+/* Reads a 1-D dataset of elem-byte values into a malloc'ed array (*n values);
+ * a chunk whose checksum does not match fails the read (put_array). */
 static int get_array(hid_t file, const char *name, hid_t type, size_t elem, void **v, size_t *n)
 {
+    get_cause[0] = '\0';
     *v = NULL;
     *n = 0;
     hid_t d = H5Lexists(file, name, H5P_DEFAULT) > 0 ? H5Dopen2(file, name, H5P_DEFAULT) : -1;
@@ -191,6 +212,9 @@ static int get_array(hid_t file, const char *name, hid_t type, size_t elem, void
     if (ok) {
         *v = malloc(count > 0 ? (size_t)count * elem : 1);
         ok = *v != NULL && (count == 0 || H5Dread(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, *v) >= 0);
+        if (!ok && *v != NULL) {
+            h5_cause(0, get_cause, sizeof get_cause);
+        }
         *n = ok ? (size_t)count : 0;
         if (!ok) {
             free(*v);
@@ -204,6 +228,17 @@ static int get_array(hid_t file, const char *name, hid_t type, size_t elem, void
         H5Dclose(d);
     }
     return ok;
+}
+
+/* What a failed get_array's message adds: the cause, when HDF5 gave one. */
+static const char *damaged(void)
+{
+    static char text[sizeof get_cause + 160];
+    if (get_cause[0] == '\0') {
+        return "";
+    }
+    snprintf(text, sizeof text, " (%s: the file was damaged or changed after it was written)", get_cause);
+    return text;
 }
 
 /* ------------------------------------------------------------------------ */
@@ -483,13 +518,13 @@ status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoin
     char block[64];
     snprintf(block, sizeof block, "/fluid_state/%d", rank);
     if (!get_array(f, block, H5T_NATIVE_UCHAR, 1, &fs, &c->fluid_size)) {
-        st = log_msg(log, STATUS_ERROR, CAT, "%s: %s is missing or unreadable", path, block);
+        st = log_msg(log, STATUS_ERROR, CAT, "%s: %s is missing or unreadable%s", path, block, damaged());
         goto done;
     }
     c->fluid_state = fs;
     if (origin->rigid[0] != '\0') {
         if (!get_array(f, "/rigid_state", H5T_NATIVE_UCHAR, 1, &rs, &c->rigid_size)) {
-            st = log_msg(log, STATUS_ERROR, CAT, "%s: /rigid_state is missing or unreadable", path);
+            st = log_msg(log, STATUS_ERROR, CAT, "%s: /rigid_state is missing or unreadable%s", path, damaged());
             goto done;
         }
         c->rigid_state = rs;
@@ -499,7 +534,7 @@ status_t checkpoint_read(const char *path, const scene_t *scene, const checkpoin
             !get_array(f, "/settle/velocity", H5T_NATIVE_DOUBLE, sizeof(double), &settle_v, &nv) || nt != nv) {
             free(settle_t);
             free(settle_v);
-            st = log_msg(log, STATUS_ERROR, CAT, "%s: /settle is unreadable", path);
+            st = log_msg(log, STATUS_ERROR, CAT, "%s: /settle is unreadable%s", path, damaged());
             goto done;
         }
         c->settle_t = settle_t;

@@ -189,6 +189,27 @@ def test_restart_with_other_exchange_is_refused(coupler, checkpoint, tmp_path):
     assert "--exchange-every 1" in p.stderr and "--exchange-every 2" in p.stderr
 
 
+def test_restart_from_a_damaged_checkpoint_is_refused(coupler, checkpoint, tmp_path):
+    """One byte changed in the fluid state's populations: the state's own header checks only the
+    header, and the restart took the changed population silently; the state datasets are stored
+    with HDF5's Fletcher-32 checksum per chunk, so the read fails and the restart is refused,
+    naming the dataset, before anything is written."""
+    bad = tmp_path / "damaged.h5"
+    bad.write_bytes(checkpoint.read_bytes())
+    with h5py.File(bad, "r") as f:
+        d = f["/fluid_state/0"]
+        assert d.fletcher32 and d.chunks is not None
+        info = d.id.get_chunk_info(d.id.get_num_chunks() // 2)
+    data = bytearray(bad.read_bytes())
+    data[info.byte_offset + info.size // 2] ^= 0x10
+    bad.write_bytes(bytes(data))
+    out = tmp_path / "x.h5"
+    p = run("run", SCENE, "-o", out, "--steps", "140", "--restart", bad, "--set", "run.fields=false")
+    assert p.returncode == 1, p.stderr
+    assert "/fluid_state/0 is missing or unreadable" in p.stderr and "damaged" in p.stderr, p.stderr
+    assert not out.exists()
+
+
 def test_restart_from_a_file_that_is_no_checkpoint(coupler, tmp_path):
     junk = tmp_path / "junk.h5"
     junk.write_text("not hdf5")
