@@ -36,9 +36,10 @@ import time as wallclock
 
 import h5py
 import numpy as np
-import yaml
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
+
+import scene_yaml
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 COUPLER = ROOT / "build" / "coupler"
@@ -354,7 +355,7 @@ def run(args):
             export(args.scene, args.set, export_dir)
         fluid = Counted("fluid.fmu", args.fluid_fmu or str(export_dir / "fluid.fmu"), tmp, call_log)
         scene_text = (pathlib.Path(fluid.slave.unzipDirectory) / "resources" / "scene.yaml").read_text()
-        scene = yaml.safe_load(scene_text)
+        scene = scene_yaml.load(scene_text)
         bodies = scene.get("bodies") or []
         free = [b for b in bodies if b.get("motion", "free") == "free"]
         if free:

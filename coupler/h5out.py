@@ -6,7 +6,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import yaml  # noqa: E402
+import scene_yaml  # noqa: E402
 
 
 def text(attr):
@@ -24,7 +24,7 @@ def read(h5):
     d = {"path": str(h5)}
     with h5py.File(h5, "r") as f:
         a = f.attrs
-        d["scene"] = yaml.safe_load(text(a["scene"])) if "scene" in a else {}
+        d["scene"] = scene_yaml.load(text(a["scene"])) if "scene" in a else {}
         d["scene_file"] = text(a["scene_file"]) if "scene_file" in a else ""
         d["h"] = float(a["communication_step"]) if "communication_step" in a else float("nan")
         d["dx"] = float(a["dx"]) if "dx" in a else float("nan")

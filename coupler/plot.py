@@ -27,10 +27,10 @@ matplotlib.use("Agg")
 import h5py  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-import yaml  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import h5out  # noqa: E402
+import scene_yaml  # noqa: E402
 
 
 text = h5out.text
@@ -53,7 +53,7 @@ def plot(path, outdir):
     stem = os.path.join(outdir, os.path.splitext(os.path.basename(path))[0])
     with h5py.File(path, "r") as f:
         t = f["/time"][:]
-        scene = yaml.safe_load(text(f.attrs["scene"])) if "scene" in f.attrs else {}
+        scene = scene_yaml.load(text(f.attrs["scene"])) if "scene" in f.attrs else {}
         if "spheres" in f:
             pos, vel, force = f["/spheres/position"][:], f["/spheres/velocity"][:], f["/spheres/force"][:]
             ns = pos.shape[1]

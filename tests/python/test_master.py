@@ -265,6 +265,38 @@ def test_plot_script(coupler, tmp_path):
         assert (tmp_path / "png" / n).read_bytes()[:4] == b"\x89PNG"
 
 
+SETTLING_E = """\
+domain: {size: [16e-5, 16e-5, 16e-5], faces: {z_min: {type: no_slip}, z_max: {type: no_slip}}}
+fluid: {density: 1000, viscosity: 1e-6, dx: 1e-5, tau: 0.8}
+bodies: [{density: 2e3, spheres: [{center: [8e-5, 8e-5, 8e-5], radius: 3e-5}]}]
+rigid: {gravity: [0, 0, -9.81]}
+run: {end_time: 3e-4}
+"""
+
+
+def test_python_side_reads_numbers_without_a_point(coupler, tmp_path):
+    """models/README.md allows 1e-5 (and inf, nan); PyYAML's YAML 1.1 read them as strings:
+    plot.py stopped with "can't multiply sequence by non-int" on this settling sphere and
+    fmpy_master.py with "fmi2Terminate failed" (its TypeError hidden). coupler/scene_yaml.py."""
+    s = tmp_path / "settling_e.yaml"
+    s.write_text(SETTLING_E)
+    out = tmp_path / "o.h5"
+    assert run("run", s, "-o", out, "--quiet").returncode == 0
+    q = subprocess.run([str(PY), str(ROOT / "coupler" / "plot.py"), str(out)], capture_output=True, text=True,
+                       timeout=300)
+    assert q.returncode == 0, q.stderr
+    assert "o_settling.png" in q.stdout
+    q = subprocess.run([str(PY), str(ROOT / "coupler" / "fmpy_master.py"), str(s), "-o", str(tmp_path / "py.h5"),
+                        "--steps", "2"], capture_output=True, text=True, timeout=300)
+    assert q.returncode == 0, q.stderr
+    import sys
+    sys.path.insert(0, str(ROOT / "coupler"))
+    import scene_yaml
+    v = scene_yaml.load("[1e-5, 5E3, 1.0e3, .5, -0, 0x10, inf, -Infinity, '1e-5', 1_000, 017]")
+    assert v[:6] == [1e-5, 5e3, 1e3, 0.5, 0, 16] and v[6:8] == [math.inf, -math.inf]
+    assert v[8:] == ["1e-5", 1000, 15]  # quoted text stays text; the rest as PyYAML reads it
+
+
 # --- checkpoint ----------------------------------------------------------------------
 
 
