@@ -178,6 +178,17 @@ static bool build_bodies(ctx_t *c, const raw_scene_t *r, scene_t *s)
             }
         }
 
+        if (b->motion == MOTION_FIXED && rb->velocity != NULL) {
+            snprintf(key, sizeof key, "bodies.%d.velocity", i);
+            scene_report_warn(c, key, "= %s: ignored for a fixed body (it never moves; motion: prescribed moves "
+                              "a body with its velocity)", fmt_vec(rb->velocity, 3).s);
+        }
+        if (b->motion == MOTION_FIXED && rb->angular_velocity != NULL) {
+            snprintf(key, sizeof key, "bodies.%d.angular_velocity", i);
+            scene_report_warn(c, key, "= %s: ignored for a fixed body (it never moves; motion: prescribed turns "
+                              "a body with its angular velocity)", fmt_vec(rb->angular_velocity, 3).s);
+        }
+
         snprintf(key, sizeof key, "bodies.%d.density", i);
         scene_check_range(c, key, b->density, 0, INFINITY, LO_OPEN);
         snprintf(key, sizeof key, "bodies.%d.velocity", i);

@@ -122,7 +122,10 @@ void units_assess(const scene_t *s, const units_t *u, const log_t *log, units_as
     double g = norm3(s->rigid.gravity);
     for (int b = 0; b < s->nbodies; b++) {
         const scene_body_t *body = &s->bodies[b];
-        consider(a, norm3(body->velocity), "a body's velocity");
+        const int moves = body->motion != MOTION_FIXED; /* a fixed body's velocities are ignored */
+        if (moves) {
+            consider(a, norm3(body->velocity), "a body's velocity");
+        }
         double rmax = 0.0;
         for (int i = 0; i < body->nspheres; i++) {
             const double r = body->spheres[i].radius;
@@ -130,7 +133,9 @@ void units_assess(const scene_t *s, const units_t *u, const log_t *log, units_as
             if (a->radius_cells == 0.0 || r / u->dx < a->radius_cells) {
                 a->radius_cells = r / u->dx;
             }
-            consider(a, norm3(body->angular_velocity) * r, "a body's rotation");
+            if (moves) {
+                consider(a, norm3(body->angular_velocity) * r, "a body's rotation");
+            }
         }
         if (body->motion == MOTION_FREE && g > 0.0) {
             /* Stokes settling of the largest sphere, the paper's Eq. 10 */

@@ -181,6 +181,18 @@ def test_bad_scene_values(coupler, tmp_path, override, words):
     assert out.read_bytes() == b"precious"  # nothing written
 
 
+def test_velocity_of_a_fixed_body_is_ignored_with_a_warning(coupler):
+    """A fixed body never moves: its velocity was ignored without a word, yet check's Mach
+    estimate took it ("Mach number 4.33e+09 (from a body's velocity)")."""
+    p = run("check", MODELS / "sinking_sphere.yaml", "--set", "bodies.0.motion=fixed",
+            "--set", "bodies.0.velocity=[1e3, 0, 0]", "--set", "bodies.0.angular_velocity=[0, 0, 1e6]")
+    assert p.returncode == 0, p.stderr
+    assert "bodies.0.velocity = [1000, 0, 0]: ignored for a fixed body" in p.stderr, p.stderr
+    assert "bodies.0.angular_velocity = [0, 0, 1000000]: ignored for a fixed body" in p.stderr
+    assert "a body's" not in p.stdout + p.stderr
+    assert re.search(r"Mach +0\n", p.stdout) and "nothing moves" in p.stdout, p.stdout
+
+
 def test_check_refuses_a_run_too_long_to_count(coupler):
     """ceil(run.end_time / dt) beyond a long: check printed "steps -9223372036854775808" and
     exited 0; now the scene is refused with the count and the maximum, 2^53 (common/scene.h)."""
