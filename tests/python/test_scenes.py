@@ -4,6 +4,7 @@ The generator reproduces the committed files bit for bit, the agglomerates are
 sintered trees, and every scene runs a few coupled steps with finite forces. The
 scene checks (dual-star symmetry, rotation at half the shear rate, fusion and
 break-up balances) are in test_shear_scenes.py and test_agglomerate_scenes.py."""
+import re
 import subprocess
 import sys
 
@@ -77,3 +78,30 @@ def test_every_paper_scene_writes_fields_for_paraview(scene):
     assert s["run"]["fields"] is True
     n = s["run"]["end_time"] / s["run"]["field_interval"]
     assert abs(n - round(n)) < 1e-6 and 4 <= round(n) <= 8
+
+
+def test_scene_table_gives_what_check_prints():
+    """models/README.md's table of the agglomerate scenes gives each one's memory as `coupler
+    check` prints it (it gave the two-array figures, 581 MB for the dual star where check says
+    277 MB), and sphere_in_shear's step count (960; the whole-ns dt makes it 961)."""
+    text = (MODELS / "README.md").read_text()
+    rows = [l for l in text.splitlines() if l.startswith("| `") and l.endswith(" MB |") and ".yaml`" in l]
+    assert len(rows) == 5
+    for row in rows:
+        names = re.findall(r"`(\w+)\.yaml`|`_(\d+)`", row.split("|")[1])
+        stems = [a or f"agglomerate_{b}" for a, b in names]
+        table = [int(x) for x in re.findall(r"\d+", row.split("|")[-2])]
+        for stem, mb in zip(stems, table, strict=True):
+            p = run("check", MODELS / f"{stem}.yaml")
+            got = float(re.search(r"memory +([\d.]+) MB", p.stdout).group(1))
+            assert round(got) == mb, (stem, got, mb)
+    p = run("check", MODELS / "sphere_in_shear.yaml")
+    steps = re.search(r"steps +(\d+) to", p.stdout).group(1)
+    assert f"runs {steps} steps" in text
+    # README "Speed and memory": three_agglomerates in each layout (it gave 401.7, 202.1, 824.5 MB)
+    readme = (MODELS.parent / "README.md").read_text()
+    for sets, row in ((), "in_place, double (default)"), (("--set", "fluid.precision=single"), "in_place, single"), \
+            (("--set", "fluid.streaming=two_array"), "two_array, double"):
+        p = run("check", MODELS / "three_agglomerates.yaml", *sets)
+        m = re.search(r"memory +([\d.]+) MB .*?([\d.]+) per interior cell", p.stdout)
+        assert f"| {row} | {m.group(1)} MB ({m.group(2)} B per interior cell) |" in readme, (row, m.groups())
