@@ -149,11 +149,16 @@ static int same_file(const char *a, const char *b)
  * how a run continues. */
 static status_t check_paths(const scene_t *scene, const run_options_t *opt, const master_t *m, const log_t *log)
 {
+    char xmf[sizeof m->fields + 4] = ""; /* OUT_fields.xmf, as h5fields names it */
+    if (m->fields[0] != '\0') {
+        snprintf(xmf, sizeof xmf, "%.*s.xmf", (int)(strrchr(m->fields, '.') - m->fields), m->fields);
+    }
     const struct {
         const char *path, *what;
     } out[] = {{opt->output, "the output (-o)"},
                {m->cp_path, "the checkpoint beside the output"},
                {m->fields[0] != '\0' ? m->fields : NULL, "the field file beside the output"},
+               {xmf[0] != '\0' ? xmf : NULL, "the field index (.xmf) beside the output"},
                {opt->log_calls, "the FMI call log (--log-fmi-calls)"}},
       in[] = {{scene->path, "the scene file"},
               {opt->restart, "the checkpoint to restart from (--restart)"},

@@ -292,6 +292,13 @@ def test_run_never_writes_over_what_it_reads(coupler, tmp_path):
     p = run("run", scene, "-o", tmp_path / "b.h5", "--log-fmi-calls", tmp_path / "b.h5", "--steps", "2")
     assert p.returncode == 1 and "is also the output" in p.stderr
     assert not (tmp_path / "b.h5").exists()
+    # the fluid's index of the field file, OUT_fields.xmf, was left out: a scene of that name was
+    # overwritten by it, exit 0
+    xmf = tmp_path / "c_fields.xmf"
+    xmf.write_bytes(text)
+    p = run("run", xmf, "-o", tmp_path / "c.h5", "--steps", "2", "--set", "run.fields=true")
+    assert p.returncode == 1 and "the field index (.xmf) beside the output" in p.stderr, p.stderr
+    assert "is also the scene file" in p.stderr and xmf.read_bytes() == text
     # the usual restart, from the checkpoint beside the output, is not such a clash
     p = run("run", scene, "-o", out, "--restart", cp, "--steps", "6", "--quiet")
     assert p.returncode == 0, p.stderr
