@@ -65,6 +65,7 @@ class Counted:
                                fmiCallLogger=(lambda msg: call_log.write(f"{label} {msg}\n")) if call_log else None)
         self.calls = {}
         self.step_seconds = 0.0
+        self.instantiated = self.initialized = False  # what close() may undo
 
     def count(self, name):
         self.calls[name] = self.calls.get(name, 0) + 1
@@ -72,6 +73,7 @@ class Counted:
     def instantiate(self, t0, t_stop):
         self.count("fmi2Instantiate")
         self.slave.instantiate()
+        self.instantiated = True
         self.count("fmi2SetupExperiment")
         self.slave.setupExperiment(startTime=t0, stopTime=t_stop)
         self.count("fmi2EnterInitializationMode")
@@ -84,6 +86,7 @@ class Counted:
     def exit_init(self):
         self.count("fmi2ExitInitializationMode")
         self.slave.exitInitializationMode()
+        self.initialized = True
 
     def get_real(self, vrs):
         self.count("fmi2GetReal")
@@ -108,10 +111,14 @@ class Counted:
         self.step_seconds += wallclock.perf_counter() - w0
 
     def close(self):
+        """Ends the instance as far as it got: fmi2Terminate of an FMU never initialised fails
+        and its error replaced the exception that stopped the run."""
         try:
-            self.slave.terminate()
+            if self.initialized:
+                self.slave.terminate()
         finally:
-            self.slave.freeInstance()
+            if self.instantiated:
+                self.slave.freeInstance()
 
 
 def lattice(scene, dt):

@@ -297,6 +297,23 @@ def test_python_side_reads_numbers_without_a_point(coupler, tmp_path):
     assert v[8:] == ["1e-5", 1000, 15]  # quoted text stays text; the rest as PyYAML reads it
 
 
+def test_fmpy_master_names_what_stopped_it_before_initialisation(coupler, tmp_path):
+    """FMUs whose signals do not fit are refused before fmi2ExitInitializationMode; the clean-up
+    then called fmi2Terminate, which fails there, and its error replaced the message:
+    "fmpy_master: FMICallException: fmi2Terminate failed with status 3 (error)"."""
+    s = coupled(tmp_path, fields="false")
+    one = tmp_path / "one"
+    p = run("export", s, "-d", one, "--set", "connections=[]", "--set",
+            "bodies=[{density: 4000, spheres: [{center: [1.0e-4, 1.0e-4, 1.2e-4], radius: 3.0e-5}]}]")
+    assert p.returncode == 0, p.stderr
+    q = subprocess.run([str(PY), str(ROOT / "coupler" / "fmpy_master.py"), str(s), "-o", str(tmp_path / "py.h5"),
+                        "--steps", "2", "--fluid-fmu", str(one / "fluid.fmu")], capture_output=True, text=True,
+                       timeout=300)
+    assert q.returncode == 1
+    assert "signal mismatch: input sphere[1].force.x of rigid.fmu has no output" in q.stderr, q.stderr
+    assert "fmi2Terminate" not in q.stderr
+
+
 # --- checkpoint ----------------------------------------------------------------------
 
 
