@@ -231,6 +231,16 @@ def test_cli_usage_errors(coupler, tmp_path):
     assert p.returncode == 1 and "missing.yaml" in p.stderr
 
 
+def test_readme_command_line_lists_every_command_of_help(coupler):
+    """README "Command line" left out `coupler bench --coupled SCENE.yaml [--steps N] [--json]`,
+    which `coupler --help` prints."""
+    p = run("--help")
+    block = (MODELS.parent / "README.md").read_text().split("## Command line", 1)[1].split("```")[1]
+    readme = " ".join(block.replace("build/coupler", "coupler").split())
+    for line in p.stderr.splitlines()[1:]:
+        assert " ".join(line.split()) in readme, line
+
+
 def test_scene_that_is_a_folder(coupler, tmp_path):
     # was "error: [scene] DIR: cannot read at byte 0: input error"
     for cmd in ("check", "run", "export"):
