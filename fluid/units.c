@@ -163,8 +163,8 @@ void units_assess(const scene_t *s, const units_t *u, const log_t *log, units_as
     }
     if (u->tau < 0.55) {
         log_msg(log, STATUS_WARNING, "units",
-                "%s: fluid.tau = %g is close to 0.5: the scheme loses stability; use tau >= 0.55 or TRT", s->path,
-                u->tau);
+                "%s: fluid.tau = %.9g is close to 0.5: the scheme loses stability; use tau >= 0.55%s", s->path,
+                u->tau, s->fluid.collision == COLLISION_BGK ? " or TRT" : "");
         a->nwarnings++;
     }
     if (u->tau > 2.5) {

@@ -193,6 +193,16 @@ def test_velocity_of_a_fixed_body_is_ignored_with_a_warning(coupler):
     assert re.search(r"Mach +0\n", p.stdout) and "nothing moves" in p.stdout, p.stdout
 
 
+def test_tau_close_to_a_half_is_named_as_used(coupler):
+    """tau 0.5000001 was reported as "fluid.tau = 0.5 is close to 0.5" (%g) and the remedy
+    "or TRT" was offered to a scene that uses TRT."""
+    p = run("check", MODELS / "channel_poiseuille.yaml", "--set", "fluid.tau=0.5000001")
+    assert p.returncode == 0, p.stderr
+    assert "fluid.tau = 0.5000001 is close to 0.5: the scheme loses stability; use tau >= 0.55\n" in p.stderr
+    p = run("check", MODELS / "channel_poiseuille.yaml", "--set", "fluid.tau=0.52", "--set", "fluid.collision=bgk")
+    assert "is close to 0.5: the scheme loses stability; use tau >= 0.55 or TRT" in p.stderr
+
+
 def test_check_refuses_a_run_too_long_to_count(coupler):
     """ceil(run.end_time / dt) beyond a long: check printed "steps -9223372036854775808" and
     exited 0; now the scene is refused with the count and the maximum, 2^53 (common/scene.h)."""
