@@ -41,13 +41,18 @@ static bool key_under(const char *key, const char *prefix, size_t plen)
     return strncmp(key, prefix, plen) == 0 && (key[plen] == '\0' || key[plen] == '.');
 }
 
-/* "FILE:LINE", "FILE (--set K=V)" or "FILE": where the user can find `key`. */
+/* "FILE:LINE", "FILE (--set K=V)" or "FILE": where the user can find `key`.
+ * An override of a part of the key's value (--set bodies.0.spheres.0.center.1=...
+ * for bodies.0.spheres.0.center) is named too: the file's line does not
+ * show the value that is wrong. */
 static void ctx_locate(const ctx_t *c, const char *key, char *buf, size_t size)
 {
     for (int i = c->noverrides - 1; i >= 0 && key[0] != '\0'; i--) {
         const char *ov = c->overrides[i];
         const char *eq = strchr(ov, '=');
-        if (eq != NULL && eq > ov && key_under(key, ov, (size_t)(eq - ov))) {
+        if (eq != NULL && eq > ov &&
+            (key_under(key, ov, (size_t)(eq - ov)) ||
+             ((size_t)(eq - ov) > strlen(key) && key_under(ov, key, strlen(key))))) {
             snprintf(buf, size, "%s (--set %s)", c->file, ov);
             return;
         }

@@ -404,6 +404,11 @@ static const bad_scene_t CASES[] = {
     {26, "run: {end_time: 2.0,\n      ranks: [1, 1, 1.5]}", NULL, {NULL}, 1,
      "scene.yaml:27: run.ranks.2 = 1.5: not a whole number in range; allowed: an integer in [1, 65536]"},
 
+    /* one coordinate from --set: the message named the file's line, which shows another value */
+    {0, NULL, NULL, {"bodies.1.spheres.0.center.0=2.0e-3"}, 1,
+     "scene.yaml (--set bodies.1.spheres.0.center.0=2.0e-3): bodies.1.spheres.0.center = [0.002, 0.0002, 0.0015] "
+     "(sphere 2): the x coordinate 0.002 is outside the periodic domain; allowed: x in [0, 0.001)"},
+
     /* --- --set paths --- */
     {0, NULL, NULL, {"run.end_time.0=1"}, 1,
      "scene.yaml: override 'run.end_time.0=1': run.end_time is a number and has no key '0'"},
