@@ -397,7 +397,9 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     if (check_paths(scene, opt, &m, log) != STATUS_OK) {
         goto done;
     }
-    if (opt->log_calls != NULL && (m.calls = fopen(opt->log_calls, "w")) == NULL) {
+    /* opened without emptying it: a run refused below leaves an old log as it was
+     * (emptied before the FMUs' first call, init_fmus) */
+    if (opt->log_calls != NULL && (m.calls = fopen(opt->log_calls, "a")) == NULL) {
         log_msg(log, STATUS_ERROR, CAT, "cannot write the FMI call log %s: %s", opt->log_calls, strerror(errno));
         goto done;
     }
@@ -497,6 +499,10 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             goto done;
         }
         resume_fields = v;
+    }
+    if (m.calls != NULL && ftruncate(fileno(m.calls), 0) != 0) {
+        log_msg(log, STATUS_ERROR, CAT, "cannot write the FMI call log %s: %s", opt->log_calls, strerror(errno));
+        goto done;
     }
     if (init_fmus(&m, t_end, resume_fields, opt->restart != NULL ? &restart : NULL, restored) >= STATUS_ERROR) {
         log_msg(log, STATUS_ERROR, CAT, "the FMUs could not be initialised (see above); nothing was run");

@@ -324,6 +324,25 @@ def test_run_never_writes_over_what_it_reads(coupler, tmp_path):
     assert p.returncode == 0, p.stderr
 
 
+def test_a_refused_run_leaves_an_old_fmi_call_log_as_it_was(coupler, tmp_path):
+    """--log-fmi-calls emptied its file before the checks, so a run refused for a broken FMU or
+    for the disk it needs ("not run, nothing written") had emptied last run's log."""
+    log = tmp_path / "calls.log"
+    log.write_text("last run\n")
+    (tmp_path / "broken").mkdir()
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", tmp_path / "o.h5", "--log-fmi-calls", log,
+            "--fluid-fmu", tmp_path / "broken")
+    assert p.returncode == 1 and "modelDescription.xml" in p.stderr, p.stderr
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", tmp_path / "o.h5", "--log-fmi-calls", log,
+            "--steps", "100000000000", "--set", "run.output_interval=1e-9")  # 1e11 rows: no disk holds them
+    assert p.returncode == 1 and "not run, nothing written" in p.stderr, p.stderr
+    assert log.read_text() == "last run\n"
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", tmp_path / "o.h5", "--log-fmi-calls", log,
+            "--steps", "2", "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert log.read_text().startswith("fluid.fmu fmi2Instantiate(")
+
+
 def test_tiny_intervals_do_not_hang(coupler, tmp_path):
     # run.output_interval / run.field_interval of 1e-30 s: the next row's index was counted up to
     # t one interval at a time (1e26 turns of a loop that a signal could not stop). Now a row and
