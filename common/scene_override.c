@@ -339,6 +339,13 @@ bool scene_override_apply(ctx_t *c, yaml_document_t *doc, const char *ov)
                 return false;
             }
             long n = (long)(node->data.sequence.items.top - node->data.sequence.items.start);
+            if (n == 0) { /* "has 0 entries (allowed: 0 to -1)" */
+                scene_report_bad(c, "",
+                                 "override '%s': index %ld is out of range; %s has no entries (entries are not "
+                                 "created: set the whole list, %s=[...])",
+                                 ov, idx, parent, parent);
+                return false;
+            }
             if (idx >= n) {
                 scene_report_bad(c, "",
                                  "override '%s': index %ld is out of range; %s has %ld entries (allowed: 0 to %ld)", ov,

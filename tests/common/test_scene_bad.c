@@ -404,6 +404,10 @@ static const bad_scene_t CASES[] = {
     {26, "run: {end_time: 2.0,\n      ranks: [1, 1, 1.5]}", NULL, {NULL}, 1,
      "scene.yaml:27: run.ranks.2 = 1.5: not a whole number in range; allowed: an integer in [1, 65536]"},
 
+    /* an entry of a list the file does not have: "run.ranks has 0 entries (allowed: 0 to -1)" */
+    {0, NULL, NULL, {"run.ranks.0=2"}, 1,
+     "scene.yaml: override 'run.ranks.0=2': index 0 is out of range; run.ranks has no entries (entries are not "
+     "created: set the whole list, run.ranks=[...])"},
     /* one coordinate from --set: the message named the file's line, which shows another value */
     {0, NULL, NULL, {"bodies.1.spheres.0.center.0=2.0e-3"}, 1,
      "scene.yaml (--set bodies.1.spheres.0.center.0=2.0e-3): bodies.1.spheres.0.center = [0.002, 0.0002, 0.0015] "
