@@ -234,8 +234,9 @@ void spheres_free(spheres_t *sp)
     memset(sp, 0, sizeof *sp);
 }
 
-void spheres_advance_prescribed(spheres_t *sp, long step)
+int spheres_advance_prescribed(spheres_t *sp, long step, int *face)
 {
+    int beyond = -1;
     for (int i = 0; i < sp->n; i++) {
         sphere_t *p = &sp->s[i];
         if (p->motion != MOTION_PRESCRIBED) {
@@ -250,7 +251,18 @@ void spheres_advance_prescribed(spheres_t *sp, long step)
             p->v[a] = p->vbody[a] + wrel[a];
         }
         spheres_wrap_centre(sp, p->c);
+        /* a prescribed body moves as given, through a wall too: the faces lie
+         * half a cell beyond the first and last cells, X = 0.5 and N + 0.5; a
+         * sphere may touch one (the scene allows r <= c <= L - r) */
+        for (int a = 0; a < 3 && beyond < 0; a++) {
+            const double tol = 1e-9;
+            if (!sp->periodic[a] && (p->c[a] - p->r < 0.5 - tol || p->c[a] + p->r > sp->N[a] + 0.5 + tol)) {
+                beyond = i;
+                *face = 2 * a + (p->c[a] + p->r > sp->N[a] + 0.5 + tol);
+            }
+        }
     }
+    return beyond;
 }
 
 /* Marks the cells inside sphere k with FLAG_MARK and lists them in the

@@ -241,8 +241,10 @@ size_t spheres_pairs_bytes(const spheres_t *sp);
 void spheres_pairs_out(const spheres_t *sp, unsigned char *buf);
 size_t spheres_pairs_size(const unsigned char *buf, size_t size, int nspheres);
 int spheres_pairs_in(spheres_t *sp, const unsigned char *buf);
-/* Moves prescribed and fixed spheres by one step (dt = 1). */
-void spheres_advance_prescribed(spheres_t *sp, long step);
+/* Moves prescribed and fixed spheres by one step (dt = 1). Returns the first
+ * prescribed sphere that now reaches beyond a face that is not periodic, its
+ * face (2 axis + side) in *face, or -1. */
+int spheres_advance_prescribed(spheres_t *sp, long step, int *face);
 /* Wraps a centre (global lattice coordinates) onto the periodic axes. */
 void spheres_wrap_centre(const spheres_t *sp, double c[3]);
 

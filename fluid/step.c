@@ -307,7 +307,20 @@ status_t fluid_step(fluid_t *fl)
     const int first = fl->spheres.first || fl->spheres.stale;
     if (spheres) {
         fluid_share_kinematics(fl);
-        spheres_advance_prescribed(&fl->spheres, fl->step);
+        int face = 0;
+        const int k = spheres_advance_prescribed(&fl->spheres, fl->step, &face);
+        if (k >= 0) {
+            static const char *const names[6] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
+            const sphere_t *q = &fl->spheres.s[k];
+            const double dx = fl->units.dx;
+            return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                           "%s: prescribed sphere %d (body %d) reaches beyond the face %s at step %ld (t = %.6g s): "
+                           "centre (%.4g, %.4g, %.4g) m, radius %.4g m; a prescribed body moves as given, through "
+                           "a wall too: end the run before (run.end_time, --steps) or change bodies.%d.velocity "
+                           "or angular_velocity",
+                           fl->path, k, q->body, names[face], fl->step, fluid_time(fl), (q->c[0] - 0.5) * dx,
+                           (q->c[1] - 0.5) * dx, (q->c[2] - 0.5) * dx, q->r * dx, q->body);
+        }
     }
     const int plan = spheres && fl->sov.mode != SOV_OFF && !decomp_parallel(&fl->d) ? sov_plan(fl) : SOV_NONE;
     const int planned = plan != SOV_NONE;

@@ -343,6 +343,26 @@ def test_a_refused_run_leaves_an_old_fmi_call_log_as_it_was(coupler, tmp_path):
     assert log.read_text().startswith("fluid.fmu fmi2Instantiate(")
 
 
+def test_prescribed_sphere_through_a_wall_stops_the_run(coupler, tmp_path):
+    """A prescribed body moves as given: driven at a no-slip floor it went through it and out of
+    the box (centre z = -5e-5 m after 200 steps), exit 0, without a word."""
+    out = tmp_path / "o.h5"
+    p = run("run", MODELS / "sinking_sphere.yaml", "-o", out, "--steps", "40", "--quiet", "--set", "run.fields=false",
+            "--set", "run.output_interval=1e-9",
+            "--set", "bodies.0={density: 2000, motion: prescribed, velocity: [0, 0, -0.02],"
+            " spheres: [{center: [3.0e-4, 3.0e-4, 6.0e-5], radius: 5.0e-5}]}")
+    assert p.returncode == 1
+    # z = 6e-5 m - 0.02 m/s x 30 x 16667 ns = 4.99998e-5 m < r at step 30: the step from there is refused
+    assert "prescribed sphere 0 (body 0) reaches beyond the face z_min at step 30 (t = 0.00050001 s)" in p.stderr, \
+        p.stderr
+    with h5py.File(out, "r") as f:
+        assert f["/time"].shape == (31,)
+    p = run("run", MODELS / "sinking_sphere.yaml", "-o", out, "--steps", "40", "--quiet", "--set", "run.fields=false",
+            "--set", "bodies.0={density: 2000, motion: prescribed, velocity: [0.02, 0, 0],"
+            " spheres: [{center: [3.0e-4, 3.0e-4, 5.0e-5], radius: 5.0e-5}]}")
+    assert p.returncode == 0, p.stderr  # touching the floor and sliding along it is allowed
+
+
 def test_tiny_intervals_do_not_hang(coupler, tmp_path):
     # run.output_interval / run.field_interval of 1e-30 s: the next row's index was counted up to
     # t one interval at a time (1e26 turns of a loop that a signal could not stop). Now a row and
