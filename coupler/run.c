@@ -311,6 +311,38 @@ static void free_master(master_t *m)
 
 /* A run stopped on an error: what its output file holds, read back (rank 0
  * writes it; the others only say that the run stopped). */
+/* The options of this run that its continuation must repeat: the FMUs and
+ * --exchange-every (a restart without them is refused), --steps (without it
+ * the continuation runs to run.end_time instead) and --checkpoint-every
+ * (without it no further checkpoint); with_steps 0 leaves --steps out (the
+ * end-of-run summary asks for a larger one). */
+static void continue_options(const run_options_t *opt, int with_steps, char *buf, size_t n)
+{
+    size_t k = 0;
+    buf[0] = '\0';
+    if (opt->fluid_fmu != NULL) {
+        k += (size_t)snprintf(buf + k, n - k, " --fluid-fmu %s", opt->fluid_fmu);
+    }
+    if (k < n && opt->rigid_fmu != NULL) {
+        k += (size_t)snprintf(buf + k, n - k, " --rigid-fmu %s", opt->rigid_fmu);
+    }
+    if (k < n && opt->exchange_every > 1) {
+        k += (size_t)snprintf(buf + k, n - k, " --exchange-every %d", opt->exchange_every);
+    }
+    if (k < n && with_steps && opt->steps > 0) {
+        k += (size_t)snprintf(buf + k, n - k, " --steps %ld", opt->steps);
+    }
+    if (k < n && opt->checkpoint_every > 0.0) {
+        /* the shortest text that reads back as the same double */
+        char t[32];
+        snprintf(t, sizeof t, "%.15g", opt->checkpoint_every);
+        if (strtod(t, NULL) != opt->checkpoint_every) {
+            snprintf(t, sizeof t, "%.17g", opt->checkpoint_every);
+        }
+        snprintf(buf + k, n - k, " --checkpoint-every %s", t);
+    }
+}
+
 static void report_kept(const char *path, const log_t *log)
 {
     if (mpi_env_rank() > 0) {
@@ -675,11 +707,13 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             if (mpi_env_size() > 1) {
                 snprintf(launch, sizeof launch, "mpirun -np %d ", mpi_env_size());
             }
+            char more[3 * 4096 + 128];
+            continue_options(opt, 1, more, sizeof more);
             log_msg(log, STATUS_WARNING, CAT,
                     "stopped by %s at t = %.9g s (communication step %ld of %ld); %s holds the output rows to then; "
-                    "checkpoint %s: continue with `%scoupler run %s [the same --set options] --restart %s -o %s`",
+                    "checkpoint %s: continue with `%scoupler run %s [the same --set options]%s --restart %s -o %s`",
                     sig == SIGINT ? "SIGINT" : "SIGTERM", t, n, nsteps, opt->output, m.cp_path, launch, scene->path,
-                    m.cp_path, opt->output);
+                    more, m.cp_path, opt->output);
             rc = 128 + sig;
             goto done;
         }
@@ -781,9 +815,11 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
     }
     printf("  output %s%s%s\n", opt->output, m.fields[0] != '\0' ? ", fields " : "", m.fields);
     if (opt->checkpoint_every > 0.0 && nsteps > restart.step && cp.n1 < 0 && short_last == 0) {
-        printf("  checkpoint %s at the last step (%ld): to go on, `coupler run %s [the same --set options] --restart "
+        char more[3 * 4096 + 128];
+        continue_options(opt, 0, more, sizeof more);
+        printf("  checkpoint %s at the last step (%ld): to go on, `coupler run %s [the same --set options]%s --restart "
                "%s -o %s --steps N` with N > %ld\n",
-               m.cp_path, nsteps, scene->path, m.cp_path, opt->output, nsteps);
+               m.cp_path, nsteps, scene->path, more, m.cp_path, opt->output, nsteps);
     }
     rc = 0;
     goto done;

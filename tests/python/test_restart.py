@@ -8,6 +8,8 @@ and SIGTERM finish the step, write a checkpoint and exit with 130 / 143. A
 restart with another scene, other options or another build is refused with
 a message that says what differs."""
 import os
+import re
+import shlex
 import signal
 import subprocess
 import time
@@ -284,3 +286,30 @@ def test_a_run_that_ended_continues_as_one_longer_run(coupler, tmp_path, output_
     assert_identical(tmp_path / "ref_fields.h5", tmp_path / "run_fields.h5")
     t = datasets(out)["time"]
     assert np.all(np.diff(t) > 0), t
+
+
+def test_stop_message_gives_the_command_that_continues(coupler, tmp_path):
+    """The command that a stop by SIGTERM prints ("continue with `...`") repeats
+    the options the continuation needs: --exchange-every (without it the restart
+    is refused), --steps (without it the run went on to run.end_time) and
+    --checkpoint-every (without it the continued run wrote no checkpoint). Run
+    as printed, it gives the output of the uninterrupted run."""
+    sets = ["--set", "run.fields=false"]
+    opts = ["--exchange-every", "2", "--steps", "350"]
+    ref = tmp_path / "ref.h5"
+    p = run("run", SCENE, "-o", ref, "--quiet", *opts, *sets)
+    assert p.returncode == 0, p.stderr
+    out = tmp_path / "run.h5"
+    proc = start("run", SCENE, "-o", out, "--quiet", *opts, "--checkpoint-every", EVERY, *sets)
+    wait_for(tmp_path / "run_checkpoint.h5", proc)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 143, err
+    printed = re.search(r"continue with `([^`]*)`", err).group(1)
+    for option in ("--exchange-every 2", "--steps 350", f"--checkpoint-every {EVERY}"):
+        assert option in printed, printed
+    words = shlex.split(printed.replace("[the same --set options]", shlex.join(sets)))
+    assert words[:2] == ["coupler", "run"], printed
+    p = run(*words[1:])
+    assert p.returncode == 0, p.stderr
+    assert_identical(ref, out)
