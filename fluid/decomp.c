@@ -67,6 +67,33 @@ int decomp_rank_at(const decomp_t *d, const int coords[3])
     return r;
 }
 
+/* MPI_Dims_create's balanced split of world ranks over the axes not kept
+ * whole. It returns its sizes largest first: given as (z, y, x), the most
+ * ranks go along z and the fewest along x, whose rows the kernel streams (a
+ * cut along x shortens every row and its exchange copies strided values: 2
+ * ranks ran at 0.68-0.72 of ideal cut along x, 0.87-0.91 along z; README
+ * "Several MPI ranks"). */
+static int balanced_dims(int world, const int keep[3], int dims[3])
+{
+    int rev[3] = {keep[2] ? 1 : 0, keep[1] ? 1 : 0, keep[0] ? 1 : 0};
+    const int rc = MPI_Dims_create(world, 3, rev);
+    dims[0] = rev[2];
+    dims[1] = rev[1];
+    dims[2] = rev[0];
+    return rc;
+}
+
+/* The first axis that dims cuts into blocks thinner than DECOMP_MIN_CELLS, or -1. */
+static int thin_axis(const int N[3], const int dims[3])
+{
+    for (int a = 0; a < 3; a++) {
+        if (dims[a] > 1 && N[a] / dims[a] < DECOMP_MIN_CELLS) {
+            return a;
+        }
+    }
+    return -1;
+}
+
 status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world, int rank, const log_t *log)
 {
     memset(d, 0, sizeof *d);
@@ -104,27 +131,33 @@ status_t decomp_layout(decomp_t *d, const scene_t *s, const int N[3], int world,
     } else {
         /* axes too short to cut stay whole (MPI_Dims_create keeps the
          * entries that are set); the others as balanced as it finds */
+        int keep[3];
         for (int a = 0; a < 3; a++) {
-            dims[a] = N[a] < 2 * DECOMP_MIN_CELLS ? 1 : 0;
+            keep[a] = N[a] < 2 * DECOMP_MIN_CELLS;
         }
-        if (dims[0] * dims[1] * dims[2] == 1) {
+        if (keep[0] && keep[1] && keep[2]) {
             return log_msg(log, STATUS_ERROR, "fluid",
                            "%s: the grid of %d x %d x %d cells has no axis of %d cells or more to cut over %d "
                            "ranks: use one rank, or more cells (fluid.dx)",
                            path, N[0], N[1], N[2], 2 * DECOMP_MIN_CELLS, world);
         }
-        /* MPI_Dims_create returns its sizes largest first: given as (z, y,
-         * x), the most ranks go along z and the fewest along x, whose rows
-         * the kernel streams (a cut along x shortens every row and its
-         * exchange copies strided values: 2 ranks ran at 0.68-0.72 of ideal
-         * cut along x, 0.87-0.91 along z; README "Several MPI ranks") */
-        int rev[3] = {dims[2], dims[1], dims[0]};
-        if (MPI_Dims_create(world, 3, rev) != MPI_SUCCESS) {
+        if (balanced_dims(world, keep, dims) != MPI_SUCCESS) {
             return log_msg(log, STATUS_ERROR, "fluid", "%s: MPI_Dims_create cannot split %d ranks", path, world);
         }
-        dims[0] = rev[2];
-        dims[1] = rev[1];
-        dims[2] = rev[0];
+        /* an axis that this split cuts into blocks too thin stays whole too,
+         * and its ranks go to the other axes, if that split is thick enough
+         * (3 ranks on 24 x 24 x 11 cells: [1, 3, 1], not [1, 1, 3] refused);
+         * if none is, the first split stays and is refused below */
+        int other[3] = {dims[0], dims[1], dims[2]};
+        for (int thin = thin_axis(N, other); thin >= 0; thin = thin_axis(N, other)) {
+            keep[thin] = 1;
+            if ((keep[0] && keep[1] && keep[2]) || balanced_dims(world, keep, other) != MPI_SUCCESS) {
+                break;
+            }
+            if (thin_axis(N, other) < 0) {
+                memcpy(dims, other, sizeof other);
+            }
+        }
     }
     for (int a = 0; a < 3; a++) {
         if (dims[a] > 1 && N[a] / dims[a] < DECOMP_MIN_CELLS) {

@@ -263,6 +263,19 @@ def test_impossible_decomposition_is_an_error(coupler, tmp_path, args, message):
     assert "MPI ranks" not in p.stdout
 
 
+@pytest.mark.parametrize("cells,dims", [((24, 24, 11), [1, 3, 1]), ((12, 9, 9), [3, 1, 1])])
+def test_an_axis_too_thin_for_its_ranks_is_left_whole(coupler, tmp_path, cells, dims):
+    """MPI_Dims_create gives 3 ranks to z; 11 or 9 cells along z over 3 ranks make
+    blocks thinner than 4 cells, so z stays whole and the ranks go along y, or x
+    (before, `mpirun -np 3` on these grids stopped with '11 cells along z over 3
+    ranks leaves blocks of fewer than 4 cells' although y or x could take them)."""
+    p = run("check", write_scene(tmp_path, cells=cells), "--ranks", "3")
+    assert p.returncode == 0, p.stderr
+    world, got, source, rows, _ = report(p.stdout)
+    assert (world, got, source) == (3, dims, "MPI_Dims_create")
+    assert_rows(rows, expected(cells, dims, (1, 0, 0)))
+
+
 def test_grid_too_small_to_cut(coupler, tmp_path):
     p = run("check", write_scene(tmp_path, cells=(6, 6, 6)), "--ranks", "2")
     assert p.returncode == 1
