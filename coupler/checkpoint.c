@@ -44,7 +44,7 @@ void checkpoint_path(const char *output, char *buf, size_t n)
 {
     snprintf(buf, n, "%s", output);
     char *dot = strrchr(buf, '.'), *slash = strrchr(buf, '/');
-    if (dot != NULL && (slash == NULL || dot > slash) && strcmp(dot, ".h5") == 0) {
+    if (dot != NULL && (slash == NULL || dot > slash)) { /* any extension, as the field file OUT_fields.h5 */
         *dot = '\0';
     }
     strncat(buf, "_checkpoint.h5", n - strlen(buf) - 1);

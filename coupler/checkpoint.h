@@ -66,7 +66,9 @@ typedef struct {
     double wall[3];       /* wall time so far: fluid, rigid, whole run */
 } checkpoint_t;
 
-/* "OUT_checkpoint.h5" for the output "OUT.h5" (OUT without its .h5). */
+/* "OUT_checkpoint.h5" for the output "OUT.h5" (OUT: the output's name
+ * without its extension, whatever it is, as for the field file
+ * OUT_fields.h5, so that a restart finds that file beside the checkpoint). */
 void checkpoint_path(const char *output, char *buf, size_t n);
 
 /* A 64-bit FNV-1a hash of a file's bytes, as 16 hex digits. */

@@ -313,3 +313,27 @@ def test_stop_message_gives_the_command_that_continues(coupler, tmp_path):
     p = run(*words[1:])
     assert p.returncode == 0, p.stderr
     assert_identical(ref, out)
+
+
+def test_restart_of_an_output_not_named_h5_finds_its_field_file(coupler, reference, tmp_path):
+    """-o run.hdf5: the field file is run_fields.h5 (the output's name without its
+    extension) and so is the checkpoint's name, run_checkpoint.h5, so that a restart
+    into another output finds the field file beside the checkpoint. The checkpoint
+    was run.hdf5_checkpoint.h5 (only .h5 was taken off), the restart looked for
+    run.hdf5_fields.h5, warned that it was not there and the new field file lacked
+    every snapshot before the checkpoint."""
+    sets = ["--set", "run.field_interval=0.003"]
+    first = tmp_path / "first" / "run.hdf5"
+    first.parent.mkdir()
+    p = run("run", SCENE, "-o", first, "--steps", "400", "--quiet", "--checkpoint-every", EVERY, *sets)
+    assert p.returncode == 0, p.stderr
+    ckpt = first.with_name("run_checkpoint.h5")
+    assert ckpt.exists() and first.with_name("run_fields.h5").exists()
+    moved = tmp_path / "second" / "continued.hdf5"
+    moved.parent.mkdir()
+    p = run("run", SCENE, "-o", moved, "--steps", STEPS, "--quiet", "--restart", ckpt, *sets)
+    assert p.returncode == 0, p.stderr
+    assert "not there" not in p.stderr, p.stderr
+    assert_identical(reference["verlet"], moved)
+    assert_identical(reference["verlet"].with_name("verlet_fields.h5"), moved.with_name("continued_fields.h5"))
+
