@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define CAT "run"
@@ -127,25 +128,36 @@ static status_t copy_file(const char *src, const char *dst, const log_t *log)
     return STATUS_OK;
 }
 
-/* A restart's field file (rank 0): the run continues m->fields if it is
- * there (the interrupted run's own, restarted with the same -o). A restart
- * into another output starts it as a copy of the interrupted run's field
- * file, which lies beside its checkpoint (P_checkpoint.h5: P_fields.h5) and
- * is left as it is; without that file the new one starts empty, with a
- * warning. *resume: 1 when m->fields is then there to continue. */
+/* a and b are one file (both exist, same inode) */
+static int same_inode(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
+/* A restart's field file (rank 0): the run continues m->fields if it is the
+ * interrupted run's own (restarted with the same -o), or if that one is not
+ * known. A restart into another output starts it as a copy of the
+ * interrupted run's field file, which lies beside its checkpoint
+ * (P_checkpoint.h5: P_fields.h5) and is left as it is, also over a field
+ * file of that name already there (another run's: it was continued, its
+ * snapshots before the checkpoint kept); without that file the new one
+ * starts empty, with a warning. *resume: 1 when m->fields is then there to
+ * continue. */
 status_t master_restart_fields(master_t *m, const char *checkpoint, int *resume)
 {
     *resume = 1;
-    if (access(m->fields, F_OK) == 0) {
-        return STATUS_OK;
-    }
     static const char suffix[] = "_checkpoint.h5";
     const size_t len = strlen(checkpoint), ls = sizeof suffix - 1;
     char orig[4200] = "";
     if (len > ls && strcmp(checkpoint + len - ls, suffix) == 0) {
         snprintf(orig, sizeof orig, "%.*s_fields.h5", (int)(len - ls), checkpoint);
     }
-    if (orig[0] != '\0' && access(orig, R_OK) == 0) {
+    const int orig_there = orig[0] != '\0' && access(orig, R_OK) == 0;
+    if (access(m->fields, F_OK) == 0 && (!orig_there || same_inode(orig, m->fields))) {
+        return STATUS_OK;
+    }
+    if (orig_there) {
         const status_t st = copy_file(orig, m->fields, &m->log);
         if (st == STATUS_OK && !m->opt->quiet) {
             printf("restart: the field file %s continues a copy of the interrupted run's %s\n", m->fields, orig);

@@ -337,3 +337,25 @@ def test_restart_of_an_output_not_named_h5_finds_its_field_file(coupler, referen
     assert_identical(reference["verlet"], moved)
     assert_identical(reference["verlet"].with_name("verlet_fields.h5"), moved.with_name("continued_fields.h5"))
 
+
+def test_restart_into_an_output_whose_field_file_is_another_runs(coupler, reference, tmp_path):
+    """A restart into another output copies the interrupted run's field file also
+    over a field file of that name already there from another run: it continued
+    that file instead, keeping the other run's snapshots before the checkpoint
+    (here those of 50 steps with a snapshot every 30: fields/000030 was in the
+    result, and 000000 was the other run's)."""
+    sets = ["--set", "run.field_interval=0.003"]
+    first = tmp_path / "first" / "run.h5"
+    first.parent.mkdir()
+    p = run("run", SCENE, "-o", first, "--steps", "400", "--quiet", "--checkpoint-every", EVERY, *sets)
+    assert p.returncode == 0, p.stderr
+    moved = tmp_path / "second" / "continued.h5"
+    moved.parent.mkdir()
+    p = run("run", SCENE, "-o", moved, "--steps", "50", "--quiet", "--set", "run.field_interval=0.0005",
+            "--set", "fluid.initial_velocity=[0, 0, 1e-4]")
+    assert p.returncode == 0, p.stderr
+    p = run("run", SCENE, "-o", moved, "--steps", STEPS, "--quiet", "--restart", first.with_name("run_checkpoint.h5"),
+            *sets)
+    assert p.returncode == 0, p.stderr
+    assert_identical(reference["verlet"], moved)
+    assert_identical(reference["verlet"].with_name("verlet_fields.h5"), moved.with_name("continued_fields.h5"))
