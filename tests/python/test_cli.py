@@ -48,6 +48,21 @@ def test_check_warns_on_high_mach(coupler):
     assert "Mach" in p.stderr and "warning" in p.stderr
 
 
+@pytest.mark.parametrize("collision", ["trt", "bgk"])
+def test_check_names_trt_as_a_remedy_only_for_bgk(coupler, collision):
+    # TRT at a fixed magic parameter has a steady state (wall location included) independent of tau,
+    # so a large tau warns of the wall drift only with BGK; near 1/2 TRT is offered only to BGK.
+    # Before, a TRT scene at tau 3.5 was told "drifts with tau (BGK); use TRT or tau <= 2.5" and one
+    # at tau 0.5001 "use tau >= 0.55 or TRT".
+    sets = ["--set", f"fluid.collision={collision}"]
+    large = run("check", MODELS / "channel_poiseuille.yaml", *sets, "--set", "fluid.tau=3.5")
+    small = run("check", MODELS / "channel_poiseuille.yaml", *sets, "--set", "fluid.tau=0.5001")
+    assert large.returncode == 0 and small.returncode == 0, (large.stderr, small.stderr)
+    assert ("fluid.tau = 3.5 is large" in large.stderr) == (collision == "bgk"), large.stderr
+    assert "is close to 0.5" in small.stderr, small.stderr
+    assert ("TRT" in small.stderr) == (collision == "bgk"), small.stderr
+
+
 @pytest.mark.parametrize("sets", [[], ["--set", "rigid.gravity=[-0.05, 0, 0]"],
                                   ["--set", "rigid.gravity=[-0.05, 0, 0]", "--set", "fluid.dx=1e-7"]])
 def test_check_counts_every_warning_it_prints(coupler, sets):
