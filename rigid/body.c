@@ -242,19 +242,30 @@ status_t rigid_share_props(const log_t *log, int n, const double (*c)[3], const 
             }
         }
     } else {
-        share_quad_t qd = {&g, 0, 0.0, 1e-11 * 4.0 * M_PI * pow(R, 5) / 15.0};
+        /* in units of R: the one tolerance then suits the volume and the
+         * first and second moments alike (in metres, R^5 scaled it far below
+         * the volume's round-off for R << 1 m, and the panels halved to the
+         * depth limit everywhere: three overlapping spheres of 3.3 mm never
+         * finished) */
+        share_geom_t gu = g;
+        gu.R = 1.0;
+        for (int k = 0; k < g.n; k++) {
+            gu.t[k] = g.t[k] / R;
+        }
+        share_quad_t qd = {&gu, 0, 0.0, 1e-11 * 4.0 * M_PI / 15.0};
         double f[NF];
         share_adapt(&qd, -1.0, 1.0, f, 0);
-        V = f[0];
-        m1[0] = f[1];
-        m1[1] = f[2];
-        m1[2] = f[3];
-        S[0] = f[4];
-        S[4] = f[5];
-        S[8] = f[6];
-        S[1] = S[3] = f[7];
-        S[2] = S[6] = f[8];
-        S[5] = S[7] = f[9];
+        const double R3 = R * R * R, R4 = R3 * R, R5 = R4 * R;
+        V = f[0] * R3;
+        m1[0] = f[1] * R4;
+        m1[1] = f[2] * R4;
+        m1[2] = f[3] * R4;
+        S[0] = f[4] * R5;
+        S[4] = f[5] * R5;
+        S[8] = f[6] * R5;
+        S[1] = S[3] = f[7] * R5;
+        S[2] = S[6] = f[8] * R5;
+        S[5] = S[7] = f[9] * R5;
     }
     if (!(V > 0.0)) {
         return log_msg(log, STATUS_ERROR, RIGID_CAT, "sphere %d: its share of the union has volume %g m^3 (must be > 0)",

@@ -111,6 +111,32 @@ static void test_three_in_line_quadrature(void)
     check_axi(s, 3, ref, 1.0, 1e-8);
 }
 
+static void test_triangle_in_metres(void)
+{
+    /* three spheres of 3.3 mm in an equilateral triangle, centres 1.5 radii
+     * apart: each pair overlaps and all three share the region about the
+     * centroid, so the quadrature path. Its tolerance was scaled by R^5 in
+     * metres, far below the round-off of the volume (R^3): the panels halved
+     * to the depth limit and rigid_create never returned. By symmetry the
+     * centre of mass is the centroid and the in-plane inertia is isotropic;
+     * by inclusion-exclusion 3 V1 - 3 L < V <= 3 V1 - 2 L (L the lens of a
+     * pair, pi (4R + d)(2R - d)^2 / 12; the triple region is in (0, L]). */
+    const double R = 3.3e-3, d = 1.5 * R, h = d * sqrt(3.0) / 2.0, rho = 1000.0;
+    rigid_sphere_cfg_t s[3] = {{{0, 0, 0}, R, 0}, {{d, 0, 0}, R, 0}, {{d / 2.0, h, 0}, R, 0}};
+    rigid_body_cfg_t b = {rho, {0, 0, 0}, {0, 0, 0}, 0};
+    rigid_config_t cfg = test_cfg(3, s, 1, &b, 0, NULL);
+    rigid_t *r = NULL;
+    CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &r), STATUS_OK);
+    double com[3], m, I[9];
+    rigid_get_body(r, 0, com, NULL, NULL, NULL, &m, I);
+    const double v1 = 4.0 / 3.0 * M_PI * R * R * R, lens = M_PI * (4.0 * R + d) * pow(2.0 * R - d, 2) / 12.0;
+    CU_ASSERT(m > rho * (3.0 * v1 - 3.0 * lens) && m <= rho * (3.0 * v1 - 2.0 * lens));
+    CU_ASSERT(fabs(com[0] - d / 2.0) < 1e-7 * R && fabs(com[1] - h / 3.0) < 1e-7 * R && fabs(com[2]) < 1e-7 * R);
+    CU_ASSERT(rel_err(I[0], I[4]) < 1e-7);
+    CU_ASSERT(fabs(I[1]) < 1e-8 * I[0]);
+    rigid_free(r);
+}
+
 static void test_symmetric_star(void)
 {
     /* central sphere R with six touching arms r on +-x, +-y, +-z:
@@ -141,5 +167,6 @@ void test_body_register(void)
     CU_add_test(s, "two touching spheres: parallel axes", test_two_touching);
     CU_add_test(s, "two overlapping spheres: lens counted once", test_two_overlapping_lens);
     CU_add_test(s, "three overlapping in line: quadrature path", test_three_in_line_quadrature);
+    CU_add_test(s, "three overlapping in a triangle, in metres: quadrature path", test_triangle_in_metres);
     CU_add_test(s, "symmetric star: isotropic inertia", test_symmetric_star);
 }
