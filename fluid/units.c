@@ -161,6 +161,15 @@ void units_assess(const scene_t *s, const units_t *u, const log_t *log, units_as
                 s->path, a->mach, a->u_source);
         a->nwarnings++;
     }
+    if (a->mach > s->fluid.mach_limit) {
+        /* the fluid's detector stops such a run (fluid_check) */
+        log_msg(log, STATUS_WARNING, "units",
+                "%s: Mach number %.3g (from %s) is above fluid.mach_limit %g: the run stops as soon as a fluid cell "
+                "moves that fast (at its first step when it is the initial velocity); lower the speed in lattice "
+                "units or raise fluid.mach_limit (at most 1) if this speed is meant",
+                s->path, a->mach, a->u_source, s->fluid.mach_limit);
+        a->nwarnings++;
+    }
     if (u->tau < 0.55) {
         /* TRT as a remedy only where it is not already used */
         log_msg(log, STATUS_WARNING, "units",

@@ -48,6 +48,21 @@ def test_check_warns_on_high_mach(coupler):
     assert "Mach" in p.stderr and "warning" in p.stderr
 
 
+def test_check_warns_of_a_speed_above_the_mach_limit(coupler, tmp_path):
+    # an initial velocity of Mach 0.52 was only "exceeds 0.1" in check, while the run stopped at
+    # step 0 ("velocity above the Mach limit fluid.mach_limit"); at Mach 0.17 nothing stops it
+    fast = run("check", MODELS / "channel_poiseuille.yaml", "--set", "fluid.initial_velocity=[0.12, 0, 0]")
+    assert fast.returncode == 0, fast.stderr
+    assert "above fluid.mach_limit 0.3" in fast.stderr, fast.stderr
+    out = tmp_path / "fast.h5"
+    p = run("run", MODELS / "channel_poiseuille.yaml", "-o", out, "--quiet", "--set",
+            "fluid.initial_velocity=[0.12, 0, 0]", "--set", "run.end_time=0.001")
+    assert p.returncode == 1 and "Mach limit" in p.stderr, p.stderr
+    slow = run("check", MODELS / "channel_poiseuille.yaml", "--set", "fluid.initial_velocity=[0.04, 0, 0]")
+    assert slow.returncode == 0 and "Mach number" in slow.stderr, slow.stderr
+    assert "mach_limit" not in slow.stderr, slow.stderr
+
+
 @pytest.mark.parametrize("collision", ["trt", "bgk"])
 def test_check_names_trt_as_a_remedy_only_for_bgk(coupler, collision):
     # TRT at a fixed magic parameter has a steady state (wall location included) independent of tau,
