@@ -581,3 +581,26 @@ def test_settling_summary_of_a_rising_sphere(coupler, tmp_path):
     v, stokes, re_ = map(float, m.groups())
     assert v < 0 and stokes < 0 and re_ > 0
     assert abs(re_ - abs(v) * 2 * 5e-5 / 1e-6) < 1e-2 * re_  # radius 5e-5 m, water (printed to 3 digits)
+
+
+@pytest.mark.parametrize("cells,spheres,warned", [(18, 2, True), (20, 2, False), (18, 1, False)])
+def test_check_warns_of_a_thin_periodic_slab(coupler, tmp_path, cells, spheres, warned):
+    """README "Known problems": on a periodic axis shorter than 2 (r + sqrt(2)) cells another
+    sphere's far image could be missed. check accepted radius 7.8 cells on 18-cell periodic axes
+    without a word; now it warns once per axis (the length 2 (r + sqrt(2)) = 18.43 cells named),
+    and not for 20 cells or for a sphere alone (whose own images are handled)."""
+    L = cells * 1e-5
+    body = "  - {{density: 2000, motion: fixed, spheres: [{{center: [{x}, {h}, {h}], radius: 7.8e-5}}]}}\n"
+    text = (f"domain: {{size: [4.0e-4, {L}, {L}]}}\n"
+            "fluid: {density: 1000, viscosity: 1.0e-6, dx: 1.0e-5, tau: 0.8}\n"
+            "bodies:\n" + "".join(body.format(x=(1 + 2 * k) * 1e-4, h=L / 2) for k in range(spheres)) +
+            "run: {end_time: 1.0e-4, output_interval: 1.0e-5}\n")
+    (tmp_path / "s.yaml").write_text(text)
+    p = run("check", tmp_path / "s.yaml")
+    assert p.returncode == 0, p.stderr
+    hits = p.stderr.count("a thin periodic slab")
+    if warned:
+        # y and z are thin; x (40 cells) holds the two spheres side by side
+        assert hits == 2 and "2 (r + sqrt(2) dx) = 0.000184284" in p.stderr, p.stderr
+    else:
+        assert hits == 0, p.stderr
