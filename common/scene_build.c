@@ -472,6 +472,28 @@ static void build_contacts(ctx_t *c, const raw_contacts_t *r, scene_t *s, bool d
     if (rl->min_gap != NULL) {
         scene_check_range(c, "contacts.lubrication.min_gap", l->min_gap, 0, INFINITY, LO_OPEN);
     }
+    /* keys the chosen model does not read (rigid/contact.c), as fluid.magic
+     * with BGK: said, so that a value meant to act is not taken in silence */
+    static const char *const model_name[] = {[CONTACT_NONE] = "none", [CONTACT_SPRING_DASHPOT] = "spring_dashpot",
+                                             [CONTACT_HERTZ] = "hertz"};
+    const struct {
+        const char *key;
+        const double *given;
+        int used; /* by the chosen model */
+        const char *by;
+    } keys[] = {
+        {"contacts.restitution", r->restitution, k->model != CONTACT_NONE, "spring_dashpot and hertz"},
+        {"contacts.friction", r->friction, k->model != CONTACT_NONE, "spring_dashpot and hertz"},
+        {"contacts.contact_time", r->contact_time, k->model == CONTACT_SPRING_DASHPOT, "spring_dashpot only"},
+        {"contacts.young_modulus", r->young_modulus, k->model == CONTACT_HERTZ, "hertz only"},
+        {"contacts.poisson_ratio", r->poisson_ratio, k->model == CONTACT_HERTZ, "hertz only"},
+    };
+    for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++) {
+        if (keys[i].given != NULL && !keys[i].used) {
+            scene_report_warn(c, keys[i].key, "= %s: ignored with contacts.model = %s (used by %s)",
+                              fmt_num(*keys[i].given).s, model_name[k->model], keys[i].by);
+        }
+    }
 }
 
 static void build_rigid(ctx_t *c, const raw_rigid_t *r, scene_rigid_t *g)
@@ -494,6 +516,17 @@ static void build_rigid(ctx_t *c, const raw_rigid_t *r, scene_rigid_t *g)
     scene_check_range(c, "rigid.rtol", g->rtol, 0, INFINITY, LO_OPEN);
     scene_check_range(c, "rigid.atol", g->atol, 0, INFINITY, LO_OPEN);
     scene_check_vec(c, "rigid.gravity", g->gravity, 3);
+    if (g->integrator == INTEGRATOR_VERLET) {
+        /* CVODE's settings, unread by Verlet (rigid/integrator_cvode.c) */
+        const char *given[4] = {r->cvode_method ? "rigid.cvode_method" : NULL,
+                                r->linear_solver ? "rigid.linear_solver" : NULL, r->rtol ? "rigid.rtol" : NULL,
+                                r->atol ? "rigid.atol" : NULL};
+        for (int i = 0; i < 4; i++) {
+            if (given[i] != NULL) {
+                scene_report_warn(c, given[i], "ignored with rigid.integrator = verlet (used by cvode only)");
+            }
+        }
+    }
 }
 
 static void build_run(ctx_t *c, const raw_run_t *r, scene_run_t *u)
@@ -507,6 +540,10 @@ static void build_run(ctx_t *c, const raw_run_t *r, scene_run_t *u)
     }
     if (r->field_interval != NULL) {
         scene_check_range(c, "run.field_interval", u->field_interval, 0, INFINITY, LO_OPEN);
+        if (!u->fields) {
+            scene_report_warn(c, "run.field_interval", "= %s s: ignored, as run.fields is false (no field snapshots)",
+                              fmt_num(u->field_interval).s);
+        }
     }
     for (int a = 0; a < 3; a++) {
         u->ranks[a] = 0;

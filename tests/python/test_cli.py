@@ -604,3 +604,33 @@ def test_check_warns_of_a_thin_periodic_slab(coupler, tmp_path, cells, spheres, 
         assert hits == 2 and "2 (r + sqrt(2) dx) = 0.000184284" in p.stderr, p.stderr
     else:
         assert hits == 0, p.stderr
+
+
+@pytest.mark.parametrize("sets,ignored", [
+    (["contacts.model=spring_dashpot", "contacts.young_modulus=2e9", "contacts.poisson_ratio=0.25"],
+     ["contacts.young_modulus = 2000000000: ignored with contacts.model = spring_dashpot (used by hertz only)",
+      "contacts.poisson_ratio = 0.25: ignored with contacts.model = spring_dashpot (used by hertz only)"]),
+    (["contacts.model=hertz", "contacts.contact_time=1e-4"],
+     ["contacts.contact_time = 0.0001: ignored with contacts.model = hertz (used by spring_dashpot only)"]),
+    (["contacts.model=none", "contacts.restitution=0.5", "contacts.friction=0.3"],
+     ["contacts.restitution = 0.5: ignored with contacts.model = none (used by spring_dashpot and hertz)",
+      "contacts.friction = 0.3: ignored with contacts.model = none (used by spring_dashpot and hertz)"]),
+    (["rigid.integrator=verlet", "rigid.rtol=1e-6", "rigid.cvode_method=adams"],
+     ["rigid.rtol: ignored with rigid.integrator = verlet (used by cvode only)",
+      "rigid.cvode_method: ignored with rigid.integrator = verlet (used by cvode only)"]),
+    (["run.fields=false", "run.field_interval=0.01"],
+     ["run.field_interval = 0.01 s: ignored, as run.fields is false"]),
+    (["contacts.model=hertz", "contacts.young_modulus=2e9", "rigid.integrator=cvode", "rigid.rtol=1e-6",
+      "run.fields=true", "run.field_interval=0.01"], []),
+])
+def test_keys_the_scene_does_not_use_are_named_as_ignored(coupler, sets, ignored):
+    """A key the chosen model, integrator or output does not read was taken in silence (a helper's
+    audit: contacts.young_modulus with spring_dashpot, rigid.rtol with Verlet, run.field_interval
+    without fields); now each is a warning, as fluid.magic with BGK, and the same keys where they
+    are used are not."""
+    args = [a for kv in sets for a in ("--set", kv)]
+    p = run("check", MODELS / "sinking_sphere.yaml", *args)
+    assert p.returncode == 0, p.stderr
+    for text in ignored:
+        assert text in p.stderr, p.stderr
+    assert p.stderr.count("ignored") == len(ignored), p.stderr
