@@ -18,7 +18,7 @@
 
 #include <stddef.h>
 
-#define STATE_MAGIC "SPHFMUS1"
+#define STATE_MAGIC "SPHFMUS2" /* 2: the serialized state's checksum (fmi_state.c) */
 #define TIME_TOL 1e-9 /* relative round-off allowed on communication points */
 
 /* States of the co-simulation state machine. */

@@ -747,6 +747,15 @@ def test_fmu_state_restore_is_bit_identical(fmus, tmp_path, fmu, inputs):
     bad = bytearray(blob)
     struct.pack_into("<d", bad, 96, math.nan)
     other.fails(other.fmu.deSerializeFMUstate, bytes(bad), expect="allowed: finite times")
+    # one byte of the state's last part (the component's) changed on its way: its header's checks
+    # passed and the damage was restored; the checksum of fmi2SerializeFMUstate refuses it
+    bad = bytearray(blob)
+    bad[len(bad) - 9] ^= 0x04
+    other.fails(other.fmu.deSerializeFMUstate, bytes(bad), expect="the serialized FMU state is damaged")
+    # a forged model name is quoted printable (it was quoted raw, not UTF-8: the logger failed)
+    bad = bytearray(blob)
+    bad[8:12] = b"\xff\xfe\x80\x01"
+    other.fails(other.fmu.deSerializeFMUstate, bytes(bad), expect="the FMU state belongs to model ????")
     other.close()
     # a state keeps the component's native part uncopied until the component
     # changes (common/fmi_state.c): serialised at once it is written from the
