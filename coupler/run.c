@@ -414,6 +414,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         log_msg(log, STATUS_ERROR, CAT,
                 "--checkpoint-every %g s is shorter than one communication step (%g s); allowed: at least %g s",
                 opt->checkpoint_every, h, h);
+        rc = 2; /* an option out of range: a usage error, as the other range checks of main.c */
         goto done;
     }
     checkpoint_path(opt->output, m.cp_path, sizeof m.cp_path);

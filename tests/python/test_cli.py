@@ -407,7 +407,7 @@ def test_tiny_intervals_do_not_hang(coupler, tmp_path):
         assert len(f["/fields"]) == 6  # the start and every step
     p = run("run", MODELS / "channel_poiseuille.yaml", "-o", tmp_path / "c.h5", "--steps", "5",
             "--checkpoint-every", "1e-30")
-    assert p.returncode == 1 and "--checkpoint-every 1e-30 s is shorter than one communication step" in p.stderr
+    assert p.returncode == 2 and "--checkpoint-every 1e-30 s is shorter than one communication step" in p.stderr
 
 
 def test_check_prints_the_start_with_the_flow_and_the_release(coupler):
