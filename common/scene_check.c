@@ -358,6 +358,13 @@ void scene_check_spheres(ctx_t *c, const scene_t *s, bool domain_ok, bool dx_ok)
                                           fmt_vec(sp->center, 3).s, g, fmt_num(L).s, AXIS_NAMES[a],
                                           fmt_num(2 * (r + sqrt(2.0) * s->fluid.dx)).s);
                     }
+                } else if (2 * r > L) {
+                    /* no centre fits: the range below would be empty ([r, L - r] with L - r < r) */
+                    scene_report_bad(c, key,
+                                     "= %s (sphere %d): diameter %s m exceeds the distance %s m between the walls "
+                                     "along %c; allowed: radius <= %s m",
+                                     fmt_vec(sp->center, 3).s, g, fmt_num(2 * r).s, fmt_num(L).s, AXIS_NAMES[a],
+                                     fmt_num(L / 2).s);
                 } else if (!(x - r >= 0 && x + r <= L)) {
                     scene_report_bad(c, key,
                                      "= %s with radius %s (sphere %d) reaches outside the walls along %c: "

@@ -342,6 +342,10 @@ static void test_spheres_in_domain(void)
                      "outside the walls along z: [0.00185, 0.00205]; allowed: z in [0.0001, 0.0019]");
     EXPECT_SET_ERROR("bodies.0.spheres.0.center=[5e-4, 5e-4, 5e-5]", "reaches outside the walls along z",
                      "allowed: z in [0.0001, 0.0019]");
+    /* wider than the walls are apart: no centre fits (the message gave the empty range [r, L - r]) */
+    EXPECT_SET_ERROR("bodies.1.spheres.0.radius=1.1e-3",
+                     "diameter 0.0022 m exceeds the distance 0.002 m between the walls along z; allowed: radius <= "
+                     "0.001 m");
     /* x is periodic: only the centre must be inside */
     EXPECT_SET_ERROR("bodies.1.spheres.0.center=[1.2e-3, 2e-4, 1.5e-3]",
                      "bodies.1.spheres.0.center = [0.0012, 0.0002, 0.0015] (sphere 2): the x coordinate 0.0012 is "
