@@ -168,14 +168,17 @@ void rigid_connections_eval(rigid_t *r)
     int ns = r->nspheres;
     for (int k = 0; k < r->nconn; k++) {
         rigid_conn_t *c = &r->conn[k];
-        if (!c->intact) {
+        int bi = r->spheres[c->a].body;
+        const rigid_body_t *b = &r->bodies[bi];
+        /* a fixed or prescribed body is held at every sphere by supports we do
+         * not know: its sections carry nothing (with a_s = 0 the load of a's
+         * section would depend on which sphere is listed first) */
+        if (!c->intact || b->fixed) {
             memset(c->force, 0, sizeof c->force);
             memset(c->torque, 0, sizeof c->torque);
             continue;
         }
         const unsigned char *sec = &r->section[(size_t)k * ns];
-        int bi = r->spheres[c->a].body;
-        const rigid_body_t *b = &r->bodies[bi];
         double R[9], w[3] = {0, 0, 0}, acc[3] = {0, 0, 0}, alpha[3] = {0, 0, 0};
         rq_matrix(b->q, R);
         if (!b->fixed) {

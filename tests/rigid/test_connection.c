@@ -101,6 +101,45 @@ static void test_cycle_smallest_cut(void)
     rigid_free(r);
 }
 
+/* A fixed chain of five touching spheres under gravity, its connections
+ * listed a->b along the chain or reversed: the body is held at every sphere,
+ * so no connection carries a load or breaks, in either order (the sections'
+ * free-body diagram with a_s = 0 gave mg, 2mg, 3mg, 4mg along the chain in one
+ * order and 4mg ... mg in the other, and broke the last two or the first two
+ * connections under a shear limit of 2.5 mg). */
+static void test_fixed_body_carries_nothing(void)
+{
+    double rr = 0.01, rho = 2000.0, g = 9.81;
+    double m = rho * 4.0 / 3.0 * M_PI * rr * rr * rr;
+    rigid_sphere_cfg_t s[5];
+    for (int i = 0; i < 5; i++) {
+        s[i] = (rigid_sphere_cfg_t){{2.0 * rr * i, 0, 0}, rr, 0};
+    }
+    rigid_body_cfg_t b = {rho, {0, 0, 0}, {0, 0, 0}, 1};
+    for (int rev = 0; rev < 2; rev++) {
+        rigid_connection_cfg_t c[4];
+        for (int k = 0; k < 4; k++) {
+            c[k] = (rigid_connection_cfg_t){rev ? k + 1 : k, rev ? k : k + 1, 0, 2.5 * m * g, 0};
+        }
+        rigid_config_t cfg = test_cfg(5, s, 1, &b, 4, c);
+        cfg.gravity[2] = -g;
+        rigid_t *r = NULL;
+        CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &r), STATUS_OK);
+        for (int n = 0; n < 3; n++) {
+            CU_ASSERT_EQUAL_FATAL(rigid_step(r, 1e-4), STATUS_OK);
+        }
+        for (int k = 0; k < 4; k++) {
+            double f[3], t[3];
+            int intact;
+            rigid_get_connection(r, k, f, t, &intact);
+            CU_ASSERT(intact == 1);
+            CU_ASSERT(vec_norm(f) == 0.0 && vec_norm(t) == 0.0);
+        }
+        CU_ASSERT_EQUAL(rigid_nbodies(r), 1);
+        rigid_free(r);
+    }
+}
+
 void test_connection_register(void)
 {
     CU_pSuite s = CU_add_suite("rigid_connection", NULL, NULL);
@@ -108,4 +147,5 @@ void test_connection_register(void)
     CU_add_test(s, "spinning dumbbell (CVODE): m w^2 d to 1e-10", test_dumbbell_cvode);
     CU_add_test(s, "symmetric star: opposite connections opposite", test_star_opposite);
     CU_add_test(s, "cycle: resultant over the smallest cut", test_cycle_smallest_cut);
+    CU_add_test(s, "fixed body: connections carry nothing, break in neither order", test_fixed_body_carries_nothing);
 }
