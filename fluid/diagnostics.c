@@ -89,8 +89,11 @@ static status_t trouble_report(const fluid_t *fl, double key, double mach_limit)
                                           "fluid.tau is already close to 0.5, where a smaller tau makes the lattice "
                                           "less stable), or slower walls, inlets, body force or bodies; raise "
                                           "fluid.mach_limit (at most 1) only if this speed is meant")
-                                 : "the lattice became unstable: raise fluid.tau (or fluid.dt) away from 0.5, use TRT "
-                                   "(fluid.collision: trt), more cells (fluid.dx), or lower the flow speed";
+                                 : fl->units.collision == COLLISION_BGK
+                                       ? "the lattice became unstable: raise fluid.tau (or fluid.dt) away from 0.5, use "
+                                         "TRT (fluid.collision: trt), more cells (fluid.dx), or lower the flow speed"
+                                       : "the lattice became unstable: raise fluid.tau (or fluid.dt) away from 0.5, "
+                                         "more cells (fluid.dx), or lower the flow speed";
         snprintf(text, sizeof text,
                  "%s: numerical trouble at step %ld (t = %.6g s), cell (%d, %d, %d) at (%.4g, %.4g, %.4g) m: "
                  "%s (density %.6g, |u| = %.4g lattice = Mach %.4g, fluid.mach_limit %.4g); %s%s%s",

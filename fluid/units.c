@@ -38,6 +38,7 @@ status_t units_derive(const scene_t *s, const log_t *log, units_t *u)
      * (step x dt) an ulp off the master's rows */
     u->dt = s->fluid.dt > 0.0 ? s->fluid.dt : u->nu_lat * u->dx * u->dx / u->nu;
     u->omega_plus = 1.0 / u->tau;
+    u->collision = s->fluid.collision;
     u->omega_minus = s->fluid.collision == COLLISION_TRT ? kernel_omega_minus(u->omega_plus, s->fluid.magic)
                                                          : u->omega_plus;
     const double ff = 1.0 / (units_force(u) / (u->dx * u->dx * u->dx)); /* (N/m^3)^-1 */

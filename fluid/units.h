@@ -18,6 +18,7 @@ typedef struct {
     double rho0, nu; /* kg/m^3, m^2/s */
     double tau, nu_lat, omega_plus, omega_minus;
     double force_lat[3]; /* body force per volume in lattice units */
+    collision_t collision; /* fluid.collision, for messages */
 } units_t;
 
 static inline double units_velocity(const units_t *u) { return u->dx / u->dt; }             /* m/s per lattice unit */

@@ -102,6 +102,20 @@ def test_blow_up_stops_at_nan_or_negative_density(coupler, tmp_path):
         assert f["/time"][-1] < step * 2.1e-8
 
 
+@pytest.mark.parametrize("collision", ["bgk", "trt"])
+def test_blow_up_names_trt_as_a_remedy_only_for_bgk(coupler, tmp_path, collision):
+    """The blow-up's remedy offers TRT only to a BGK scene. Before, a TRT cavity at tau 0.501
+    (lid 24 m/s = 0.2 cells per step) whose density went negative was told "use TRT
+    (fluid.collision: trt)"."""
+    scene = tmp_path / "blowup.yaml"
+    scene.write_text(CAVITY.format(lid=24.0, tau=0.501, collision=collision, end=1e-3, out=2.1e-5))
+    p = run("run", scene, "-o", tmp_path / "blowup.h5", "--quiet", "--set", "fluid.mach_limit=1")
+    assert p.returncode == 1, p.stderr
+    line = trouble_line(p.stderr)
+    assert "lattice became unstable" in line and "fluid.tau" in line, line
+    assert ("TRT" in line) == (collision == "bgk"), line
+
+
 def test_mach_limit_stops_a_fast_lid(coupler, tmp_path):
     """A lid at 0.09 m/s = 0.225 cells per step (Mach 0.39) drags the fluid under it above
     fluid.mach_limit = 0.3 (|u| 0.173 lattice) within 50 steps; with the limit at 0.5 the same
