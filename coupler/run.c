@@ -309,8 +309,6 @@ static void free_master(master_t *m)
     free(m->settle_v);
 }
 
-/* A run stopped on an error: what its output file holds, read back (rank 0
- * writes it; the others only say that the run stopped). */
 /* The options of this run that its continuation must repeat: the FMUs and
  * --exchange-every (a restart without them is refused), --steps (without it
  * the continuation runs to run.end_time instead) and --checkpoint-every
@@ -343,6 +341,8 @@ static void continue_options(const run_options_t *opt, int with_steps, char *buf
     }
 }
 
+/* A run stopped on an error: what its output file holds, read back (rank 0
+ * writes it; the others only say that the run stopped). */
 static void report_kept(const char *path, const log_t *log)
 {
     if (mpi_env_rank() > 0) {
