@@ -311,6 +311,7 @@ void scene_check_spheres(ctx_t *c, const scene_t *s, bool domain_ok, bool dx_ok)
     char key[SCENE_KEY_MAX];
     int g = 0;
     bool thin[3] = {false, false, false}; /* a thin periodic slab warned of, per axis */
+    const bool several = scene_total_spheres(s) > 1; /* another sphere's image can be missed */
     for (int i = 0; i < s->nbodies; i++) {
         const scene_body_t *b = &s->bodies[i];
         for (int k = 0; k < b->nspheres; k++, g++) {
@@ -347,8 +348,7 @@ void scene_check_spheres(ctx_t *c, const scene_t *s, bool domain_ok, bool dx_ok)
                                          "along %c, so the sphere overlaps its own image; allowed: radius <= %s m",
                                          fmt_vec(sp->center, 3).s, g, fmt_num(2 * r).s, fmt_num(L).s,
                                          AXIS_NAMES[a], fmt_num(L / 2).s);
-                    } else if (dx_ok && !thin[a] && scene_total_spheres(s) > 1 &&
-                               L < 2 * (r + sqrt(2.0) * s->fluid.dx)) {
+                    } else if (dx_ok && several && !thin[a] && L < 2 * (r + sqrt(2.0) * s->fluid.dx)) {
                         thin[a] = true; /* once per axis, for the first sphere too large for it */
                         scene_report_warn(c, key,
                                           "= %s (sphere %d): the periodic length %s m along %c is shorter than 2 (r + "

@@ -541,7 +541,8 @@ static status_t fluid_fmi_step(void *comp, const fmi_vars_t *vars, const double 
 }
 
 /* Kinematics of a fixed or prescribed sphere at time t (s): Rodrigues'
- * rotation of the centre about the body centroid. */
+ * rotation of the centre about the body's pivot (scene_body_pivot, as
+ * spheres.c and the initial profile take it). */
 static void moved_sphere(const scene_t *s, int sphere, double t, double c[3], double v[3], double w[3])
 {
     int b = 0, k = sphere;
@@ -551,16 +552,9 @@ static void moved_sphere(const scene_t *s, int sphere, double t, double c[3], do
     }
     const scene_body_t *body = &s->bodies[b];
     const int moving = body->motion == MOTION_PRESCRIBED;
-    double com[3] = {0, 0, 0}, vol = 0.0, rel[3], rot[3], wv[3] = {0, 0, 0}, vb[3] = {0, 0, 0};
-    for (int j = 0; j < body->nspheres; j++) {
-        const double r3 = pow(body->spheres[j].radius, 3.0);
-        for (int a = 0; a < 3; a++) {
-            com[a] += r3 * body->spheres[j].center[a];
-        }
-        vol += r3;
-    }
+    double com[3], rel[3], rot[3], wv[3] = {0, 0, 0}, vb[3] = {0, 0, 0};
+    scene_body_pivot(body, com);
     for (int a = 0; a < 3; a++) {
-        com[a] /= vol;
         rel[a] = body->spheres[k].center[a] - com[a];
         wv[a] = moving ? body->angular_velocity[a] : 0.0;
         vb[a] = moving ? body->velocity[a] : 0.0;
