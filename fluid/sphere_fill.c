@@ -156,7 +156,10 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         boundary_coefficients(sp->scheme, delta, l->have & 1, l->have >> 1 & 1, sp->omega_minus, &co);
         const double A = co.a[0] + co.a[1] + co.a[2];
         const double f_old = pops_post(f, q, l->xf);
-        double f_new = co.a[0] * f_old - A * 6.0 * lb_w[q] * rho * cu;
+        /* a pinched pair (x_f between two walls along c_q, sphere_links.c):
+         * bounce-back of the pair's mean, as the other wall does (walls.c) */
+        const double f_back = (l->have & SPHERES_PINCHED) ? 0.5 * (f_old + pops_post(f, o, l->xf)) : f_old;
+        double f_new = co.a[0] * f_back - A * 6.0 * lb_w[q] * rho * cu;
         const int linear = co.a[1] != 0.0 || co.b[0] != 0.0 || co.b[1] != 0.0;
         const double f_ff = (linear || co.corr != 0.0) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
         if (linear) {
@@ -202,10 +205,19 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         } else {
             pops_write(f, o, pops_in_slot(f, o, l->xf), f_new);
         }
-        /* Eq. 7 (Ladd), populations centred on the rest weight so that hidden
-         * faces of touching spheres carry no spurious pressure; Wen et al.,
-         * Phys. Rev. E 89 (2014) 023305, add -(f_old - f_new) u_w. */
-        const double mem = f_old + f_new - 2.0 * lb_w[q];
+        /* Eq. 7 (Ladd), populations centred on the equilibrium of the
+         * ambient density rho_a (the mean at the sphere's links outside the
+         * film zone in the last step), so that a uniform pressure loads no
+         * surface, closed or not: hidden faces of touching spheres, and the
+         * faces of the cells a sphere touching a wall turns to the wall, have
+         * no links. (Centred on the rest weight, rho_a 1, a fluid whose mean
+         * density had drifted by -4.2e-5 while a sphere settled turned the
+         * sphere resting on the floor at 1.4e-3 rad/s for good, through the
+         * open face under it; its lateral place in the cell decided the
+         * sense.) On a closed surface the sum of w_q c_q over the links
+         * vanishes, so there the load is the same. Wen et al., Phys. Rev. E
+         * 89 (2014) 023305, add -(f_old - f_new) u_w. */
+        const double mem = f_old + f_new - 2.0 * lb_w[q] * p->rho_film;
         double df[3];
         for (int a = 0; a < 3; a++) {
             df[a] = lb_cd[q][a] * mem - (galilean ? (f_old - f_new) * uw[a] : 0.0);
@@ -215,15 +227,11 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
             cl[9] += 1.0;
         } else {
             /* in the film zone: the normal part is the film's (sphere_links.c
-             * film_partner), less the ambient pressure: a uniform density
-             * rho_a books 2 w_q (rho_a - 1) c_q on every link, which sums to
-             * zero over the closed surface, and the film force (rigid/
-             * lubrication.c) is the excess over it. Left out with the rest,
-             * the ambient pressure pushed a sphere by (rho_a - 1)/3 times the
-             * area of the zone: into the wall at a raised pressure (an
-             * outlet's), off it at a lowered one. rho_a: the mean density at
-             * the sphere's other links in the last step (spheres_loads). */
-            const double amb = 2.0 * lb_w[q] * (p->rho_film - 1.0);
+             * film_partner), the film force (rigid/lubrication.c) being the
+             * excess over the ambient pressure, which mem above leaves out
+             * (left out whole with an ambient part, a raised pressure, an
+             * outlet's, pushed a sphere into the wall by (rho_a - 1)/3 times
+             * the area of the zone, and a lowered one off it) */
             double n[3] = {0.0, 0.0, 0.0};
             if (l->film >= 0) {
                 spheres_min_image(sp, p->c, sp->s[l->film].c, n);
@@ -234,8 +242,7 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
             } else {
                 n[(-2 - l->film) / 2] = 1.0;
             }
-            const double dn = (df[0] - lb_cd[q][0] * amb) * n[0] + (df[1] - lb_cd[q][1] * amb) * n[1] +
-                              (df[2] - lb_cd[q][2] * amb) * n[2];
+            const double dn = df[0] * n[0] + df[1] * n[1] + df[2] * n[2];
             for (int a = 0; a < 3; a++) {
                 df[a] -= dn * n[a];
             }

@@ -38,6 +38,29 @@ static inline __attribute__((always_inline)) int fluid_at(spheres_t *sp, const g
     return (flag & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
 }
 
+/* 1 when the fluid cell at X (global, unwrapped) lies between two walls
+ * along c_q: x_f + c_q is a sphere's, and x_f - c_q is a solid cell (a
+ * sphere's link sends it back) or beyond a no-slip or moving wall (a
+ * bounce-back of walls.c, whose face outranks every other kind a corner
+ * cell may cross). Both walls then send back the pair's mean
+ * (spheres_fill, walls.c fill_links): the same test on either side. */
+static int pinched(const spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q)
+{
+    int B[3], W[3], beyond = 0, wall = 0;
+    for (int a = 0; a < 3; a++) {
+        B[a] = X[a] - lb_c[q][a];
+        if (!sp->periodic[a] && (B[a] < 1 || B[a] > sp->N[a])) {
+            beyond = 1;
+            wall = wall || sp->pinch_face[2 * a + (B[a] > sp->N[a])];
+        }
+    }
+    if (beyond) {
+        return wall;
+    }
+    return spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W) != 0 &&
+           (cellflags_get(flags, grid_index(g, W[0], W[1], W[2])) & FLAG_SOLID) != 0;
+}
+
 /* The links of sphere k: every fluid cell x_f in its box (plus a cell) and
  * direction q with x_f + c_q solid whose ray hits k first (Eq. 5, nearest
  * intersection over the candidates). A link thus belongs to exactly one
@@ -347,6 +370,9 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     const int have_ff = fluid_at(sp, g, flags, Y, deep, i, off[q], q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, deep, i, off[q], q, 2, &l->xfff);
                     l->have = (uint8_t)(have_ff | have_fff << 1);
+                    if (!have_ff && pinched(sp, g, flags, X, q)) {
+                        l->have |= SPHERES_PINCHED;
+                    }
                     l->film = link_film(sp, k, q, dk, delta, o);
                     fresh_set |= l->fresh;
                     linked = 1;

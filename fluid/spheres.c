@@ -154,6 +154,7 @@ status_t spheres_init(spheres_t *sp, const scene_t *s, const units_t *u, const g
     for (int f = 0; f < 6; f++) {
         const face_type_t t = s->domain.faces[f].type;
         sp->film_face[f] = t == FACE_NO_SLIP || t == FACE_MOVING_WALL || t == FACE_FREE_SLIP;
+        sp->pinch_face[f] = t == FACE_NO_SLIP || t == FACE_MOVING_WALL;
     }
     if (sp->n == 0) {
         return STATUS_OK;

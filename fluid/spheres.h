@@ -48,7 +48,7 @@ typedef struct {
     double fprev[3], tprev[3];
     double zt, zr;           /* drag coefficients of the last step: -dF/dv and -dT/dw (isotropic parts) */
     double rho_film;         /* mean density at the fluid cells of its links outside the film zone, last step:
-                                the ambient pressure the film zone keeps (sphere_fill.c) */
+                                the ambient density the momentum exchange is centred on (sphere_fill.c) */
     double density_ratio;    /* particle / fluid density */
     double cmap[3];          /* centre at the last map stage: a sphere that has not moved keeps its links */
     int averaging;           /* deliver the load averaged over two steps (common/coupling.h) */
@@ -112,7 +112,9 @@ typedef struct {
     uint8_t q;
     uint8_t fresh;        /* x_f was uncovered this step: no multireflection correction */
     uint8_t outer;        /* x_f lies in an outer row of the block: y or z at its faces (spheres_fill) */
-    uint8_t have;         /* x_f - c_q fluid: bit 0; x_f - 2 c_q too: bit 1 (boundary_coefficients) */
+    uint8_t have;         /* x_f - c_q fluid: bit 0; x_f - 2 c_q too: bit 1 (boundary_coefficients);
+                           * bit 2 (SPHERES_PINCHED): x_f - c_q a sphere's or a no-slip/moving wall's, a
+                           * pinched pair (spheres_fill) */
     uint8_t has_pre;
 } sphere_link_t;
 
@@ -128,6 +130,9 @@ typedef struct {
  * link without its kept pair (new this step) and without the other array
  * then goes without the correction for that step. */
 #define SPHERES_MR_DECAY_MIN 0.05
+
+/* sphere_link_t.have: x_f lies between two walls along c_q (sphere_links.c) */
+#define SPHERES_PINCHED 4
 
 typedef struct {
     sphere_link_t *l;
@@ -205,6 +210,7 @@ typedef struct spheres_s {
     double omega_minus;
     double film_cutoff;   /* cells: the lubrication cut-off of the film zone, 0 without a film (spheres_fill) */
     int film_face[6];     /* 1: a face that carries a film (no-slip, moving, free-slip walls) */
+    int pinch_face[6];    /* 1: a face that closes a pinched pair (no-slip, moving walls: sphere_links.c) */
     double body_force[3]; /* lattice: the equilibrium velocity is (j~ - F/2)/rho */
 } spheres_t;
 

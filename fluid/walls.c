@@ -143,6 +143,9 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
     /* the slip of half-way bounce-back under TRT (walls.h); BGK keeps the
      * paper's plain bounce-back and its slip (Lambda = (tau - 1/2)^2) */
     w->kappa = s->fluid.collision == COLLISION_TRT ? (16.0 * s->fluid.magic - 3.0) / 24.0 : 0.0;
+    for (int q = 0; q < LB_Q; q++) {
+        w->off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
+    }
     size_t cap = 0, capc = 0;
     if (g->ncells > UINT32_MAX) {
         return log_msg(log, STATUS_ERROR, "fluid",
@@ -185,7 +188,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                         continue; /* interior, or only periodic and exchange faces crossed: periodic_axis */
                     }
                     ghost_link_t l = {0};
-                    l.q = q;
+                    l.q = (int16_t)q;
                     l.cell = grid_index(g, x, y, z);
                     int sq = q;
                     const face_t *face = &s->domain.faces[best];
@@ -219,6 +222,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                             inlet_velocity(s, d, u, best, xf, q, uw);
                         }
                         l.kind = LINK_BOUNCE;
+                        l.pinch = face->type != FACE_VELOCITY_INLET;
                         l.coef = 6.0 * lb_w[q] * (lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2]);
                         l.axis = (int16_t)(best / 2);
                         l.cell2 = l.cell;
@@ -560,7 +564,20 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
     for (ptrdiff_t i = l0; i < n; i++) {
         const ghost_link_t *l = &w->links[i];
         const size_t dst = pops_in_slot(p, l->q, l->cell);
-        const double bounced = pops_post(p, lb_opposite(l->q), l->cell);
+        double bounced = pops_post(p, lb_opposite(l->q), l->cell);
+        if (l->pinch && flags != NULL &&
+            (cellflags_get(flags, (size_t)((ptrdiff_t)l->cell + w->off[l->q])) & FLAG_SOLID) != 0) {
+            /* a pinched pair: the cell lies between this wall and a sphere
+             * along c_q, so both its populations along that line are sent
+             * back by walls. Each wall (here, and the sphere's link:
+             * sphere_fill.c) sends back the mean of the two instead of the
+             * one that reached it: the pair keeps its mass and gets the
+             * walls' velocities, where plain bounce-back swaps the two
+             * each step and keeps their difference for ever (a momentum
+             * that no collision damps, as the cell has no fluid neighbour
+             * along c_q: README "Pinched cells") */
+            bounced = 0.5 * (bounced + pops_post(p, l->q, l->cell));
+        }
         switch (l->kind) {
         case LINK_COPY:
             break; /* all in w->copies */

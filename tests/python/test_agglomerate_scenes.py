@@ -117,7 +117,7 @@ def collision_overrides():
 
 
 def test_channel_collision_short_fuses_and_balances(coupler, tmp_path):
-    out = _run(tmp_path, "channel_collision", "--steps", "230", *EVERY_STEP, *collision_overrides())
+    out = _run(tmp_path, "channel_collision", "--steps", "300", *EVERY_STEP, *collision_overrides())
     d = ca.read(out)
     _sanity(d, "channel_collision")
     ev = ca.body_events(d)
