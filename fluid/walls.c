@@ -426,6 +426,14 @@ void walls_halo_end(const walls_t *w, const grid_t *g, const pops_t *p, int a)
     }
 }
 
+/* 1 for a bounce link whose pair is pinched: the cell's neighbour away from
+ * the wall along c_q is a sphere's (walls.h ghost_link_t.pinch) */
+static inline int pinched(const walls_t *w, const ghost_link_t *l)
+{
+    return l->pinch && w->flags != NULL &&
+           (cellflags_get(w->flags, (size_t)((ptrdiff_t)l->cell + w->off[l->q])) & FLAG_SOLID) != 0;
+}
+
 void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
 {
     walls_links_prepare(w, p);
@@ -502,6 +510,13 @@ static inline __attribute__((always_inline)) void prepare_links(const walls_t *w
             /* a resting wall where the domain is too thin for the slip term
              * (cell2 == cell): plain bounce-back; walls_links still adds both */
             w->pre[i].v[0] = w->pre[i].v[1] = 0.0;
+        }
+        if (l->kind == LINK_BOUNCE) {
+            /* a pinched pair's other value, f~_q(x_f), read here, before any
+             * update: in place it may sit in x_f + c_q's slots, which an
+             * update of that cell (solid ones too with AGGLO_SKIP_SOLID=0)
+             * overwrites before the late links of step_overlapped run */
+            w->pre[i].v[2] = pinched(w, l) ? pops_post(p, l->q, l->cell) : 0.0;
         } else if (l->kind == LINK_ANTI) {
             double r1, r2, u1[3], u2[3];
             moments(p, l->cell, &r1, u1);
@@ -565,8 +580,7 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
         const ghost_link_t *l = &w->links[i];
         const size_t dst = pops_in_slot(p, l->q, l->cell);
         double bounced = pops_post(p, lb_opposite(l->q), l->cell);
-        if (l->pinch && flags != NULL &&
-            (cellflags_get(flags, (size_t)((ptrdiff_t)l->cell + w->off[l->q])) & FLAG_SOLID) != 0) {
+        if (l->kind == LINK_BOUNCE && pinched(w, l)) {
             /* a pinched pair: the cell lies between this wall and a sphere
              * along c_q, so both its populations along that line are sent
              * back by walls. Each wall (here, and the sphere's link:
@@ -576,7 +590,7 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
              * each step and keeps their difference for ever (a momentum
              * that no collision damps, as the cell has no fluid neighbour
              * along c_q: README "Pinched cells") */
-            bounced = 0.5 * (bounced + pops_post(p, l->q, l->cell));
+            bounced = 0.5 * (bounced + w->pre[i].v[2]);
         }
         switch (l->kind) {
         case LINK_COPY:

@@ -63,7 +63,8 @@ typedef struct {
 
 /* What a link reads of the cells' moments, taken before the step changes
  * them (walls_links_prepare): bounce, rho of its cell and the slip
- * correction's term 6 w_q rho c_q.u_k; anti, u_w. */
+ * correction's term 6 w_q rho c_q.u_k, and a pinched pair's f~_q(x_f); anti,
+ * u_w. */
 typedef struct {
     double v[3];
 } link_moments_t;
