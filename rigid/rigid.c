@@ -80,7 +80,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     r->scratch_bodies = calloc(ns, sizeof *r->scratch_bodies);
     r->conn = calloc((size_t)r->conn_cap, sizeof *r->conn);
     r->section = calloc((size_t)r->conn_cap * ns, 1);
-    r->touch = calloc(ns * ns, 1); /* nothing touches "before" t0: initial contacts may stick */
+    r->touch = calloc(ns * ns, 1); /* set by rigid_touch_init once the bodies are built */
     r->pair_bound = calloc(ns, sizeof *r->pair_bound);
     r->pair_far = calloc(ns * ns, 1);
     r->sf = calloc(3 * ns, sizeof(double));
@@ -180,6 +180,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
     if ((st = rigid_sections_update(r)) != STATUS_OK) {
         goto cleanup;
     }
+    rigid_touch_init(r);
     r->ops = cfg->integrator == RIGID_CVODE ? &rigid_cvode_ops : &rigid_verlet_ops;
     if ((st = r->ops->create(r, &r->integ)) != STATUS_OK) {
         r->ops = NULL;

@@ -322,6 +322,11 @@ status_t rigid_breakup(rigid_t *r, int *changed);
 status_t rigid_stick(rigid_t *r, int *changed);
 status_t rigid_regroup(rigid_t *r, int body);
 void rigid_touch_update(rigid_t *r); /* records which pairs touch now; follows broken necks */
+/* The touch flags at t0: the spheres of one body that touch (its sintered
+ * necks) touched before, so a neck that breaks in the first step is no new
+ * contact that sticks again at once; spheres of different bodies touching
+ * at t0 are new contacts (they may stick at the first step). */
+void rigid_touch_init(rigid_t *r);
 /* Reference distance of contact between spheres i and j: gap0 of a broken neck
  * joining them, else r_i + r_j. */
 double rigid_contact_reference(const rigid_t *r, int i, int j);

@@ -407,6 +407,29 @@ double rigid_contact_reference(const rigid_t *r, int i, int j)
     return r->spheres[i].radius + r->spheres[j].radius;
 }
 
+/* Whether spheres i and j (at xi, xj) touch or overlap. */
+static int touching(const rigid_t *r, int i, int j, const double xi[3], const double xj[3])
+{
+    double d[3];
+    rv_sub(xj, xi, d);
+    return rv_norm(d) <= (r->spheres[i].radius + r->spheres[j].radius) * (1.0 + RIGID_TOUCH_TOL);
+}
+
+void rigid_touch_init(rigid_t *r)
+{
+    const int ns = r->nspheres;
+    for (int i = 0; i < ns; i++) {
+        double xi[3];
+        rigid_sphere_world(r, r->bodies, i, xi, NULL, NULL);
+        for (int j = i + 1; j < ns; j++) {
+            double xj[3];
+            rigid_sphere_world(r, r->bodies, j, xj, NULL, NULL);
+            r->touch[(size_t)i * ns + j] =
+                (unsigned char)(r->spheres[i].body == r->spheres[j].body && touching(r, i, j, xi, xj));
+        }
+    }
+}
+
 void rigid_touch_update(rigid_t *r)
 {
     int ns = r->nspheres;
@@ -427,11 +450,9 @@ void rigid_touch_update(rigid_t *r)
         double xi[3];
         rigid_sphere_world(r, r->bodies, i, xi, NULL, NULL);
         for (int j = i + 1; j < ns; j++) {
-            double xj[3], d[3];
+            double xj[3];
             rigid_sphere_world(r, r->bodies, j, xj, NULL, NULL);
-            rv_sub(xj, xi, d);
-            int t = rv_norm(d) <= (r->spheres[i].radius + r->spheres[j].radius) * (1.0 + RIGID_TOUCH_TOL);
-            r->touch[(size_t)i * ns + j] = (unsigned char)t;
+            r->touch[(size_t)i * ns + j] = (unsigned char)touching(r, i, j, xi, xj);
         }
     }
 }

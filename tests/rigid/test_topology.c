@@ -124,6 +124,46 @@ static void test_broken_neck_is_no_contact(void)
     rigid_free(r);
 }
 
+/* A neck pulled past its limit from the first step on, with sticking on:
+ * the spheres of one body touched before t0 (the neck), so the broken neck
+ * is no new contact and the fragments part. Before, the touch flags of t0
+ * were all clear, the broken neck counted as a new contact at rest and fused
+ * again at once with the fuse limits (0: unbreakable): one body, the spheres
+ * still 0.018 m apart after 100 steps of twice the limit. */
+static void test_neck_broken_in_first_step_stays_broken(void)
+{
+    const double rr = 0.01, d = 1.8 * rr, lim = 1e-3;
+    rigid_sphere_cfg_t s[2] = {{{0, 0, 0}, rr, 0}, {{d, 0, 0}, rr, 0}};
+    rigid_body_cfg_t b = {1000.0, {0, 0, 0}, {0, 0, 0}, 0};
+    rigid_connection_cfg_t c = {0, 1, lim, 0, 0};
+    for (int integ = 0; integ < 2; integ++) {
+        rigid_config_t cfg = test_cfg(2, s, 1, &b, 1, &c);
+        cfg.integrator = integ ? RIGID_CVODE : RIGID_VERLET;
+        cfg.contact_model = RIGID_CONTACT_SPRING_DASHPOT;
+        cfg.contact_time = 1e-2;
+        cfg.restitution = 0.5;
+        cfg.stick_speed = 0.01;
+        rigid_t *r = NULL;
+        CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &r), STATUS_OK);
+        const double pull[3] = {-2 * lim, 0, 0}, push[3] = {2 * lim, 0, 0};
+        for (int n = 0; n < 100; n++) {
+            rigid_set_sphere_load(r, 0, pull, NULL);
+            rigid_set_sphere_load(r, 1, push, NULL);
+            CU_ASSERT_EQUAL_FATAL(rigid_step(r, 1e-4), STATUS_OK);
+        }
+        int intact;
+        double x0[3], x1[3];
+        rigid_get_connection(r, 0, NULL, NULL, &intact);
+        rigid_get_sphere(r, 0, x0, NULL, NULL);
+        rigid_get_sphere(r, 1, x1, NULL, NULL);
+        CU_ASSERT_EQUAL(intact, 0);
+        CU_ASSERT_EQUAL(rigid_nbodies(r), 2);
+        CU_ASSERT_EQUAL(rigid_nconnections(r), 1);
+        CU_ASSERT(vec_dist(x0, x1) > d + 1e-5); /* parted: 4.7e-5 m in 0.01 s at 2 lim on each */
+        rigid_free(r);
+    }
+}
+
 static void test_fusion_conserves(void)
 {
     /* an oblique, slow contact between a spinning sphere and a dumbbell */
@@ -193,6 +233,8 @@ void test_topology_register(void)
     CU_add_test(s, "break-up conserves P and L to 1e-12", test_breakup_conserves);
     CU_add_test(s, "break-up by torque limit", test_breakup_shear_torque_limits);
     CU_add_test(s, "a broken sintered neck is no contact penetration", test_broken_neck_is_no_contact);
+    CU_add_test(s, "a neck broken in the first step does not stick again at once",
+                test_neck_broken_in_first_step_stays_broken);
     CU_add_test(s, "sticking conserves P and L to 1e-12", test_fusion_conserves);
     CU_add_test(s, "no sticking above stick_speed", test_no_stick_when_fast);
 }
