@@ -26,7 +26,8 @@
  *    can add to the contact point's normal speed (|omega|^2 |arm| and
  *    |torque| / I_min times the arm's part normal to n; both zero for a
  *    single sphere, whose arm lies along n), plus the velocity jumps of the
- *    held-load correction at the start of a communication step.
+ *    held-load correction at the start of a communication step and of the
+ *    fusions of sticking (topology.c).
  * The watch stops the run when v_E > WATCH_TOL v_in + allowance, i.e. the
  * energy ratio (v_E / v_in)^2 exceeds WATCH_TOL^2 = 1.10 beyond what the other
  * forces explain. The restitution of the model (e <= 1) needs no part in the
@@ -89,6 +90,22 @@ void rigid_contact_watch_kick(rigid_t *r, int body, double dv, double dw)
         r->watch_kick[2 * body] += dv;
         r->watch_kick[2 * body + 1] += dw;
     }
+}
+
+void rigid_contact_watch_fuse(rigid_t *r, int A, int B, int last, double dv, double dw)
+{
+    double *k = r->watch_kick;
+    if (k == NULL) {
+        return;
+    }
+    /* a point of either part has had its part's jumps, and now the fusion's */
+    k[2 * A] = fmax(k[2 * A], k[2 * B]) + dv;
+    k[2 * A + 1] = fmax(k[2 * A + 1], k[2 * B + 1]) + dw;
+    if (last != B) {
+        k[2 * B] = k[2 * last];
+        k[2 * B + 1] = k[2 * last + 1];
+    }
+    k[2 * last] = k[2 * last + 1] = 0.0; /* a slot no body holds now */
 }
 
 /* The record of pair (i, j): searched from where the last one was found,

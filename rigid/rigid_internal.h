@@ -296,6 +296,10 @@ void rigid_contact_watch_reset(rigid_t *r);
 void rigid_contact_watch_free(rigid_t *r);
 /* A velocity jump of body b outside the integrator (the held-load correction). */
 void rigid_contact_watch_kick(rigid_t *r, int body, double dv, double dw);
+/* Bodies A and B fused into A (topology.c), the last body moved into slot B:
+ * their jumps so far go with them, and the fusion's own jump (dv, dw: the
+ * larger of the two parts') is added to A's. */
+void rigid_contact_watch_fuse(rigid_t *r, int A, int B, int last, double dv, double dw);
 
 /* ---- integrators ---- */
 typedef struct rigid_integrator_ops {

@@ -273,6 +273,19 @@ static status_t add_connection(rigid_t *r, int a, int b)
     return STATUS_OK;
 }
 
+/* The angular velocity of body b: none for a fixed body, the prescribed one
+ * for a kinematic body. */
+static void body_spin(const rigid_body_t *b, double w[3])
+{
+    if (b->kinematic) {
+        memcpy(w, b->kw, 3 * sizeof(double));
+    } else if (b->fixed) {
+        w[0] = w[1] = w[2] = 0.0;
+    } else {
+        rigid_body_omega(b, w);
+    }
+}
+
 /* Fuses body B into body A (A < B); the last body moves into slot B. */
 static status_t fuse(rigid_t *r, int A, int B)
 {
@@ -321,7 +334,25 @@ static status_t fuse(rigid_t *r, int A, int B)
             }
         }
     }
+    /* the jump of each part's material to the fused motion, for the
+     * contact watch: its velocity at the new centre of mass and its spin */
+    double dv = 0.0, dw = 0.0, un[3], wn[3];
+    const double zero[3] = {0, 0, 0};
+    rigid_body_point_velocity(nb, zero, un);
+    body_spin(nb, wn);
+    for (int k = 0; k < 2; k++) {
+        const rigid_body_t *part = k == 0 ? &ba : &bb;
+        double arm[3], u[3], w[3], d[3];
+        rv_sub(nb->com, part->com, arm);
+        rigid_body_point_velocity(part, arm, u);
+        body_spin(part, w);
+        rv_sub(un, u, d);
+        dv = fmax(dv, rv_norm(d));
+        rv_sub(wn, w, d);
+        dw = fmax(dw, rv_norm(d));
+    }
     int last = r->nbodies - 1;
+    rigid_contact_watch_fuse(r, A, B, last, dv, dw);
     if (B != last) {
         r->bodies[B] = r->bodies[last];
         for (int i = 0; i < r->nspheres; i++) {
