@@ -513,7 +513,9 @@ static void build_rigid(ctx_t *c, const raw_rigid_t *r, scene_rigid_t *g)
     opt_vec(g->gravity, r->gravity, 0, 0, 0);
     g->release_time = opt(r->release_time, 0.0);
     scene_check_range(c, "rigid.release_time", g->release_time, 0, INFINITY, 0);
-    scene_check_range(c, "rigid.rtol", g->rtol, 0, INFINITY, LO_OPEN);
+    /* CVODE takes a relative tolerance below 1 only (rigid_config.c, and the
+     * rigid FMU's parameter): rtol 2 passed check and stopped the run at start */
+    scene_check_range(c, "rigid.rtol", g->rtol, 0, 1, LO_OPEN | HI_OPEN);
     scene_check_range(c, "rigid.atol", g->atol, 0, INFINITY, LO_OPEN);
     scene_check_vec(c, "rigid.gravity", g->gravity, 3);
     if (g->integrator == INTEGRATOR_VERLET) {
