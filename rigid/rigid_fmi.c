@@ -36,6 +36,7 @@
 #include "../common/fmi_adapter.h"
 #include "rigid.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -117,8 +118,9 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
             goto done;
         }
     }
-    fmi_var_t *sub = fmi_vars_param(&vs, "rigid.substeps", "rigid.substeps", -1, NULL, s->rigid.substeps, 1.0, 1e6,
-                                    0, "rigid sub-steps per communication step (hydrodynamic load held)");
+    /* up to INT_MAX, as the scene allows (1e6 refused a scene's 2e6 set back through the FMU) */
+    fmi_var_t *sub = fmi_vars_param(&vs, "rigid.substeps", "rigid.substeps", -1, NULL, s->rigid.substeps, 1.0,
+                                    INT_MAX, 0, "rigid sub-steps per communication step (hydrodynamic load held)");
     if (sub == NULL) {
         st = oom(log, "the variable list", ((size_t)vs.n + 1) * sizeof(fmi_var_t));
         goto done;

@@ -200,6 +200,30 @@ def test_variable_naming_contract(fmus):
     assert md.guid != fmpy.read_model_description(str(fmus["pair"] / "fluid.fmu")).guid
 
 
+def test_parameter_start_values_lie_in_their_ranges(coupler, tmp_path):
+    """Every parameter's start value (the scene's) lies within the min and max it declares, and the
+    FMU takes that value back through fmi2SetInteger: rigid.substeps 2e6, which the scene allows
+    (up to 2147483647), was declared max 1e6 and refused when set."""
+    out, _ = export(tmp_path, "many", SCENE.format(motion=""), "rigid.substeps=2000000")
+    for which in ("rigid", "fluid"):
+        _, v = variables(out / f"{which}.fmu")
+        for name, x in v.items():
+            if x.causality == "parameter" and x.start is not None:
+                start = float(x.start)
+                assert x.min is None or float(x.min) <= start, (which, name, x.min, start)
+                assert x.max is None or start <= float(x.max), (which, name, start, x.max)
+    md, v = variables(out / "rigid.fmu")
+    folder = fmpy.extract(str(out / "rigid.fmu"), unzipdir=str(tmp_path / "rigid_x"))
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier="rigid", instanceName="r")
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.setInteger([v["rigid.substeps"].valueReference], [2000000])
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    slave.terminate()
+    slave.freeInstance()
+
+
 def model_structure(fmu):
     """Outputs and InitialUnknowns as {index: dependencies attribute or None}, and the
     ScalarVariables in index order (1-based), read from the XML itself: fmpy's reader does not
