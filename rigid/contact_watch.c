@@ -24,7 +24,8 @@
  *    by all forces but this contact's (gravity, the held hydrodynamic load,
  *    lubrication, other contacts), plus bounds on what the bodies' rotation
  *    can add to the contact point's normal speed (|omega|^2 |arm| and
- *    |torque| / I_min times the arm's part normal to n; both zero for a
+ *    |torque| / I_min times the arm's part normal to n, the torque without the
+ *    one of this contact's normal force, which is its own answer; both zero for a
  *    single sphere, whose arm lies along n), plus the velocity jumps of the
  *    held-load correction at the start of a communication step and of the
  *    fusions of sticking (topology.c).
@@ -139,19 +140,26 @@ static rigid_watch_t *find_record(rigid_t *r, watch_ctx_t *c, int i, int j)
 /* What the motion of body b (not this contact's normal force) can add per
  * second to the normal speed of its material point at arm a: the centre's
  * acceleration along n by all forces (the caller removes the contact's own
- * part) is handled by the caller; here the rotation's share, bounded. */
-static double rotation_rate(const rigid_t *r, const rigid_body_t *bodies, int b, const double a[3], const double n[3])
+ * part) is handled by the caller; here the rotation's share, bounded, by the
+ * torque without the one of this contact's normal force fn_b on b (along n,
+ * at the arm): that torque turns the body against the contact, it is the
+ * contact's own answer, not another force (counted, it let an elastic
+ * contact at the end of a rod return 2.25 times the energy unseen). */
+static double rotation_rate(const rigid_t *r, const rigid_body_t *bodies, int b, const double a[3], const double n[3],
+                            double fn_b)
 {
     const rigid_body_t *bd = &bodies[b];
     if (bd->fixed) {
         return 0.0;
     }
-    double w[3], axn[3];
+    double w[3], axn[3], tq[3];
     rigid_body_omega(bd, w);
     rv_cross(a, n, axn);
+    for (int k = 0; k < 3; k++) {
+        tq[k] = r->bt[3 * b + k] - fn_b * axn[k];
+    }
     const double imin = fmin(bd->inertia[0], fmin(bd->inertia[1], bd->inertia[2]));
-    const double tq = rv_norm(&r->bt[3 * b]);
-    return rv_dot(w, w) * rv_norm(a) + (imin > 0.0 ? tq / imin : 0.0) * rv_norm(axn);
+    return rv_dot(w, w) * rv_norm(a) + (imin > 0.0 ? rv_norm(tq) / imin : 0.0) * rv_norm(axn);
 }
 
 static double body_inv_mass(const rigid_body_t *b) { return b->fixed ? 0.0 : 1.0 / b->mass; }
@@ -237,8 +245,8 @@ static int watch_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t
                  (bj >= 0 ? r->bf[3 * bj + a] * body_inv_mass(&bodies[bj]) : 0.0)) *
                 p->n[a];
     }
-    double rate = fabs(atot + fn / meff) + rotation_rate(r, bodies, bi, p->ai, p->n) +
-                  (bj >= 0 ? rotation_rate(r, bodies, bj, p->aj, p->n) : 0.0);
+    double rate = fabs(atot + fn / meff) + rotation_rate(r, bodies, bi, p->ai, p->n, -fn) +
+                  (bj >= 0 ? rotation_rate(r, bodies, bj, p->aj, p->n, fn) : 0.0);
     double kick = r->watch_kick[2 * bi] + r->watch_kick[2 * bi + 1] * rv_norm(p->ai);
     if (bj >= 0) {
         kick += r->watch_kick[2 * bj] + r->watch_kick[2 * bj + 1] * rv_norm(p->aj);
