@@ -82,6 +82,18 @@ void rigid_body_point_velocity(const rigid_body_t *b, const double a[3], double 
     }
 }
 
+double rigid_body_compliance(const rigid_body_t *b, const double a[3], const double n[3])
+{
+    if (b->fixed) {
+        return 0.0;
+    }
+    double an[3], m[9], u[3];
+    rv_cross(a, n, an);
+    rq_matrix(b->q, m);
+    rm_tmul(m, an, u);
+    return 1.0 / b->mass + u[0] * u[0] / b->inertia[0] + u[1] * u[1] / b->inertia[1] + u[2] * u[2] / b->inertia[2];
+}
+
 void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, double x[3], double v[3], double w[3])
 {
     const rigid_sphere_t *s = &r->spheres[i];

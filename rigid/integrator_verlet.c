@@ -15,7 +15,8 @@
  * Velocity-dependent forces (dashpots, friction) in the second kick use the
  * half-step velocity.
  *
- * Stability: with a contact of natural frequency omega0 = sqrt(k/m_eff) the
+ * Stability: with a contact of natural frequency omega0 = sqrt(k/m) (m: the
+ * mass of the contact point along the normal, rotation included) the
  * scheme is unstable for h omega0 > 2 (less with damping). A sub-step with
  * h omega0 > 1 is refused with STATUS_ERROR naming the contact, bodies and
  * time, instead of producing garbage; non-finite forces and the faults of
@@ -95,7 +96,7 @@ static status_t verlet_forces(rigid_t *r, double t)
         }
         return log_msg(&r->log, STATUS_ERROR, RIGID_CAT,
                        "verlet: unstable contact between sphere %d (body %d) and %s at t=%.9g s: sub-step %g s "
-                       "times contact frequency sqrt(k/m_eff)=%g 1/s is %g, limit %g (contact time about %g s); "
+                       "times contact frequency sqrt(k/m)=%g 1/s (m: the contact point's mass, rotation included) is %g, limit %g (contact time about %g s); "
                        "use more substeps (rigid.substeps: at least %.0f for this step of %g s, the master's "
                        "communication step: a master that exchanges every K fluid steps, coupler run "
                        "--exchange-every K, needs K times as many) or the cvode BDF integrator",

@@ -126,19 +126,6 @@ static double pair_film(const rigid_t *r, const rigid_pair_t *p, double *rlog)
     }
 }
 
-/* 1/m of body b for a force along n applied at arm a from its centre of mass */
-static double compliance(const rigid_body_t *b, const double a[3], const double n[3])
-{
-    if (b->fixed) {
-        return 0.0;
-    }
-    double an[3], m[9], u[3];
-    rv_cross(a, n, an);
-    rq_matrix(b->q, m);
-    rm_tmul(m, an, u);
-    return 1.0 / b->mass + u[0] * u[0] / b->inertia[0] + u[1] * u[1] / b->inertia[1] + u[2] * u[2] / b->inertia[2];
-}
-
 /* Acceleration of the material of body bi at arm a from its centre of mass
  * under the body force and torque r->bf, r->bt (centripetal part left out). */
 static void point_accel(const rigid_t *r, const rigid_body_t *bodies, int bi, const double a[3], double acc[3])
@@ -187,9 +174,9 @@ static int lub_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t *
     }
     int bi = r->spheres[p->i].body, bj = p->j >= 0 ? r->spheres[p->j].body : -1;
     if (!c->apply) {
-        r->lub_rate[bi] += coef * compliance(&bodies[bi], p->ai, p->n);
+        r->lub_rate[bi] += coef * rigid_body_compliance(&bodies[bi], p->ai, p->n);
         if (bj >= 0) {
-            r->lub_rate[bj] += coef * compliance(&bodies[bj], p->aj, p->n);
+            r->lub_rate[bj] += coef * rigid_body_compliance(&bodies[bj], p->aj, p->n);
         }
         return 0;
     }

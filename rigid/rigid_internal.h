@@ -224,7 +224,8 @@ void rigid_sym_eigen(const double a[9], double eval[3], double evec[9]);
 /* ---- forces.c: all external forces on spheres and bodies ---- */
 typedef struct {
     int sphere_i, sphere_j; /* j < 0: wall face -1 - j (2*axis + side) */
-    double omega0;          /* sqrt(k/m_eff) of the contact, for the Verlet stability check */
+    double omega0;          /* sqrt(k/m) of the contact, m its point's mass along n (rotation included),
+                               for the Verlet stability check */
 } rigid_contact_info_t;
 /* Evaluates sphere forces (r->sf, r->st) and body forces (r->bf, r->bt) for
  * the body states in bodies (which may be a scratch copy). h_kick > 0: the
@@ -240,6 +241,9 @@ void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, dou
 /* Velocity of the material of body b at arm a from its centre of mass (zero for a fixed body,
  * the prescribed motion's for a kinematic one). */
 void rigid_body_point_velocity(const rigid_body_t *b, const double a[3], double v[3]);
+/* 1/m of body b for a force along the unit n applied at arm a from its centre
+ * of mass, rotation included: 1/M + (a x n).I^-1 (a x n); 0 for a fixed body. */
+double rigid_body_compliance(const rigid_body_t *b, const double a[3], const double n[3]);
 /* Moves the kinematic (prescribed) bodies on by h: the pivot with kv, the body turned
  * exactly by kw h about it. */
 void rigid_kinematic_advance(rigid_t *r, double h);

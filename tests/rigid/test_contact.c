@@ -333,6 +333,23 @@ static void test_energy_growth_off_centre_detected(void)
     }
 }
 
+/* Verlet's refusal of an unresolved contact (h omega0 > 1) judged by the
+ * frequency at which the contact answers: at a rod's end the contact point
+ * moves as a mass of M / 3.19, omega = 1.79 sqrt(k/M). It took sqrt(k/M):
+ * at h sqrt(k/M) = 0.9 (h omega 1.61) the rod ran on and kept 0.48 of the
+ * energy of its elastic fall (e = 1) after 0.01 s, without a word. */
+static void test_stiff_off_centre_contact_refused(void)
+{
+    test_log_t tl = {"", 0};
+    double gain;
+    CU_ASSERT_EQUAL(rod_drop(0.9, 1e-4, 0.01, &gain, &tl), STATUS_ERROR);
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "verlet: unstable contact between sphere 0 (body 0) and the wall face z_min"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "is 1.607"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(tl.last, "rigid.substeps: at least 2"));
+    test_log_t ok = {"", 0};
+    CU_ASSERT_EQUAL(rod_drop(0.55, 1e-4, 0.01, &gain, &ok), STATUS_OK); /* h omega 0.98 */
+}
+
 typedef struct {
     int n, ns;
     unsigned char *seen; /* ns x ns */
@@ -451,6 +468,8 @@ void test_contact_register(void)
     CU_add_test(s, "energy growth in an unresolved contact (Verlet, h omega0 0.9) is stopped", test_energy_growth_detected);
     CU_add_test(s, "energy growth at a contact off the centre of mass (a rod's end) is stopped",
                 test_energy_growth_off_centre_detected);
+    CU_add_test(s, "stiff contact off the centre of mass: Verlet refuses by the contact point's frequency",
+                test_stiff_off_centre_contact_refused);
     CU_add_test(s, "pair visit: exactly the pairs within reach (nearest image), body pairs passed over",
                 test_pair_visit_exact);
 }
