@@ -36,7 +36,9 @@
  *
  * Records live only between samples of one run: a contact already in
  * progress when the watch starts (at t0, after a state restore or a break-up
- * of a neck) is not judged, for want of its approach speed. A record is not
+ * of a neck) is not judged, for want of its approach speed. The integrators
+ * take the watch's first sample at the start of their step (watch_t NaN), so
+ * that a contact that begins within the first sub-step is judged. A record is not
  * part of the saved state (state.c): a restore clears them
  * (rigid_contact_watch_reset), so the continuation is bit-identical and at
  * worst misses the contacts in progress at the restore. */

@@ -384,6 +384,10 @@ static status_t cv_advance(rigid_t *r, void *data, double h)
          * CV_ONE_STEP call is one step, so CVodeSetMaxNumSteps never stops
          * this loop: the limit of CV_NORMAL is counted here */
         long taken = 0;
+        if (isnan(r->watch_t) && rigid_forces(r, r->bodies, 0.0, NULL) >= 0 &&
+            (st = rigid_contact_watch(r, r->bodies, r->t)) != STATUS_OK) {
+            return st; /* the watch's first sample: the state at the start (as Verlet) */
+        }
         do {
             if (taken++ >= CVODE_MAX_STEPS) {
                 snprintf(d->last_msg, sizeof d->last_msg,

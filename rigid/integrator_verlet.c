@@ -133,6 +133,12 @@ static status_t verlet_advance(rigid_t *r, void *data, double h)
     for (int k = 0; k < n; k++) {
         double t = r->t + h * k / n;
         status_t st = verlet_forces(r, t);
+        if (st == STATUS_OK && isnan(r->watch_t)) {
+            /* the watch's first sample (at t0, after a restore): the state at
+             * the start, so that a contact that begins in this sub-step is
+             * judged against its approach speed */
+            st = rigid_contact_watch(r, r->bodies, t);
+        }
         if (st != STATUS_OK) {
             return st;
         }
