@@ -216,10 +216,33 @@ static int watch_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t
     const double vn = rv_dot(p->vrel, p->n); /* > 0: approaching */
     const double noise =
         WATCH_FLOOR * (speed_scale(bodies, bi, p->ai) + (bj >= 0 ? speed_scale(bodies, bj, p->aj) : 0.0));
-    if (!(p->gap < 0.0)) {
+    /* the other forces' share of the normal relative acceleration, a_total +
+     * f_n / m_eff (in contact the contact pushes i back along n with f_n),
+     * and the rotation bounds; at every sample, near or in contact, so that
+     * the interval up to the touch has the rate at both its ends */
+    const int touching = p->gap < 0.0;
+    const double delta = -p->gap;
+    double meff = 0.0, rstar = 0.0, omega0 = 0.0, fn = 0.0;
+    if (touching) {
+        rigid_contact_pair_mass(r, bodies, p, &meff, &rstar);
+        fn = rigid_contact_normal_force(&r->cfg, delta, vn, meff, rstar, &omega0);
+    }
+    double atot = 0.0;
+    for (int a = 0; a < 3; a++) {
+        atot += (r->bf[3 * bi + a] * body_inv_mass(&bodies[bi]) -
+                 (bj >= 0 ? r->bf[3 * bj + a] * body_inv_mass(&bodies[bj]) : 0.0)) *
+                p->n[a];
+    }
+    const double rate = fabs(atot + (touching ? fn / meff : 0.0)) + rotation_rate(r, bodies, bi, p->ai, p->n, -fn) +
+                        (bj >= 0 ? rotation_rate(r, bodies, bj, p->aj, p->n, fn) : 0.0);
+    double kick = r->watch_kick[2 * bi] + r->watch_kick[2 * bi + 1] * rv_norm(p->ai);
+    if (bj >= 0) {
+        kick += r->watch_kick[2 * bj] + r->watch_kick[2 * bj + 1] * rv_norm(p->aj);
+    }
+    if (!touching) {
         if (w->phase == WATCH_TOUCHING) {
             /* the first sample after separation: the rebound speed */
-            const double allow = w->allow + c->dt * w->rate;
+            const double allow = w->allow + c->dt * fmax(rate, w->rate) + kick;
             if (-vn > WATCH_TOL * w->v_in + allow + noise) {
                 w->allow = allow;
                 c->st = watch_report(r, w, -vn, c->t, c->dt);
@@ -231,27 +254,8 @@ static int watch_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t
         w->t_in = c->t;
         w->allow = 0.0;
         w->omega0 = 0.0;
-        w->rate = 0.0;
+        w->rate = rate;
         return 0;
-    }
-    /* in contact: the other forces' share of the normal relative
-     * acceleration, a_total + f_n / m_eff (the contact pushes i back along
-     * n with f_n), and the rotation bounds */
-    double meff, rstar, omega0;
-    rigid_contact_pair_mass(r, bodies, p, &meff, &rstar);
-    const double delta = -p->gap;
-    const double fn = rigid_contact_normal_force(&r->cfg, delta, vn, meff, rstar, &omega0);
-    double atot = 0.0;
-    for (int a = 0; a < 3; a++) {
-        atot += (r->bf[3 * bi + a] * body_inv_mass(&bodies[bi]) -
-                 (bj >= 0 ? r->bf[3 * bj + a] * body_inv_mass(&bodies[bj]) : 0.0)) *
-                p->n[a];
-    }
-    double rate = fabs(atot + fn / meff) + rotation_rate(r, bodies, bi, p->ai, p->n, -fn) +
-                  (bj >= 0 ? rotation_rate(r, bodies, bj, p->aj, p->n, fn) : 0.0);
-    double kick = r->watch_kick[2 * bi] + r->watch_kick[2 * bi + 1] * rv_norm(p->ai);
-    if (bj >= 0) {
-        kick += r->watch_kick[2 * bj] + r->watch_kick[2 * bj + 1] * rv_norm(p->aj);
     }
     if (w->phase == WATCH_NEAR) {
         if (!(w->v_in > 0.0)) {
