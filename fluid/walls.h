@@ -18,7 +18,9 @@
  *               and otherwise slips by u_s = (16 Lambda - 3)/24 g/nu (measured
  *               exactly so for tau 0.6-2, Lambda 1/8-1/3: issue 11), and
  *               -kappa u'' with u'' = -g/nu cancels that for any tangential
- *               parabolic flow, the second difference being exact there;
+ *               parabolic flow, the second difference being exact there
+ *               (not on a link through an edge of two walls of one kind,
+ *               which has no one normal: plain bounce-back);
  *   anti        anti-bounce-back pressure outlet (Ginzburg, Verhaeghe &
  *               d'Humieres 2008; Izquierdo & Fueyo 2008):
  *               f_q = -f~_qbar + 2 w_q rho_w [1 + 4.5 (c.u_w)^2 - 1.5 u_w^2],
