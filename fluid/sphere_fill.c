@@ -7,6 +7,7 @@
 #include "spheres_internal.h"
 
 #include "boundary.h"
+#include "sphere_others.h"
 #include "lattice.h"
 
 #include <math.h>
@@ -232,19 +233,30 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
              * (left out whole with an ambient part, a raised pressure, an
              * outlet's, pushed a sphere into the wall by (rho_a - 1)/3 times
              * the area of the zone, and a lowered one off it) */
-            double n[3] = {0.0, 0.0, 0.0};
+            double de[3]; /* the part to share out (df changes as it goes) */
+            for (int a = 0; a < 3; a++) {
+                de[a] = df[a];
+            }
             if (l->film >= 0) {
+                double n[3];
                 spheres_min_image(sp, p->c, sp->s[l->film].c, n);
                 const double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
                 for (int a = 0; a < 3; a++) {
                     n[a] /= len;
                 }
+                const double dn = de[0] * n[0] + de[1] * n[1] + de[2] * n[2];
+                for (int a = 0; a < 3; a++) {
+                    df[a] -= dn * n[a];
+                }
             } else {
-                n[(-2 - l->film) / 2] = 1.0;
-            }
-            const double dn = df[0] * n[0] + df[1] * n[1] + df[2] * n[2];
-            for (int a = 0; a < 3; a++) {
-                df[a] -= dn * n[a];
+                /* a face's normal part; a point as near several faces (the
+                 * bisector of an edge) gives each its share */
+                int faces[6];
+                const int m = others_film_faces(sp, l->sphere, rw, -2 - l->film, faces);
+                for (int e = 0; e < m; e++) {
+                    const int a = faces[e] / 2;
+                    df[a] -= de[a] / m;
+                }
             }
         }
         double t[3];

@@ -35,6 +35,9 @@ void others_find(const spheres_t *sp, int k, others_t *o);
 /* The film partner of sphere k's wall point rw (relative to c_k) among the
  * nc candidates cand at rel: -1 none, m a sphere, -2 - f face f. */
 int others_film_partner(const spheres_t *sp, int k, const double rw[3], const int *cand, double (*rel)[3], int nc);
+/* Of such a wall point with face f its partner, the faces with a film as near
+ * (f among them) into faces: how many; they share the point (sphere_fill.c). */
+int others_film_faces(const spheres_t *sp, int k, const double rw[3], int f, int faces[6]);
 /* After every link of a list was checked: what a later refresh needs to
  * check only the near cells (others_near_check_holds). */
 void others_note_checked(const spheres_t *sp, link_list_t *list, const others_t *o, int checked, int fresh_set);

@@ -301,6 +301,49 @@ static void test_pinched_cells_damped(void)
     }
 }
 
+/* A sphere moving along the bisector of an edge of two no-slip walls
+ * (x_min and z_min), its film zones with both: mirrored in the bisector,
+ * the load along x and along z must agree. The wall points on the bisector
+ * are as near one wall as the other, and the first in axis order took them:
+ * the x component of their normal part was left out, the z one kept, and
+ * once they entered the zone (radius 5, gap 0.44 cells to each wall) the
+ * load along z was 1.4% above the load along x. They are shared now. The
+ * same edge mirrored (x_min, z_max), where the two gaps are rounded
+ * differently, as well. */
+static void test_edge_bisector_symmetric(void)
+{
+    for (int m = 0; m < 2; m++) {
+        const int L = 20, zface = m == 0 ? 4 : 5;
+        scene_t s = test_box(L, L, L, 1.0, COLLISION_TRT);
+        s.fluid.magic = 0.25;
+        s.domain.faces[0].type = s.domain.faces[1].type = FACE_NO_SLIP;
+        s.domain.faces[4].type = s.domain.faces[5].type = FACE_NO_SLIP;
+        s.contacts.lubrication.enabled = 1;
+        s.contacts.lubrication.cutoff = 2.0;
+        const double a = 5.0, g = 0.5, U = 0.003 / sqrt(2.0), sz = zface == 4 ? 1.0 : -1.0;
+        scene_sphere_t sph = {{a + g, L / 2.0, zface == 4 ? a + g : L - a - g}, a};
+        scene_body_t body = {.nspheres = 1, .spheres = &sph, .density = 2.0, .motion = MOTION_FREE};
+        s.bodies = &body;
+        s.nbodies = 1;
+        fluid_t *fl = test_fluid(&s);
+        CU_ASSERT_FATAL(fl != NULL);
+        const double v[3] = {-U, 0.0, -sz * U}, w[3] = {0.0, 0.0, 0.0};
+        double worst = 0.0, f[3], t[3];
+        for (int k = 0; k < 60; k++) {
+            sph.center[0] += v[0];
+            sph.center[2] += v[2];
+            fluid_set_sphere(fl, 0, sph.center, v, w);
+            test_run(fl, 1);
+            fluid_sphere_load_lattice(fl, 0, f, t);
+            worst = fmax(worst, fabs(f[0] - sz * f[2]) / fabs(f[0]));
+        }
+        printf("\n    edge x_min, %s: load along x and z %.1e apart (load %.4f)", zface == 4 ? "z_min" : "z_max", worst,
+               f[0]);
+        CU_ASSERT(worst < 1e-12);
+        fluid_free(fl);
+    }
+}
+
 void approach_register_tests(int validate)
 {
     CU_pSuite s = CU_add_suite("close approaches", NULL, NULL);
@@ -312,6 +355,8 @@ void approach_register_tests(int validate)
                 test_film_zone_keeps_ambient_pressure);
     CU_add_test(s, "pinched cells (a sphere on a floor, two spheres 0.02 apart): flow decays, mass kept",
                 test_pinched_cells_damped);
+    CU_add_test(s, "sphere along the bisector of an edge of two walls: the same load along both normals",
+                test_edge_bisector_symmetric);
     if (validate) {
         CU_pSuite v = CU_add_suite("close approaches-validate", NULL, NULL);
         CU_add_test(v, "sphere to wall r=8, 96^3: Brenner within 5% at gap/a 2..0.05", test_wall_approach_full);
