@@ -237,7 +237,18 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
             for (int a = 0; a < 3; a++) {
                 de[a] = df[a];
             }
-            if (l->film >= 0) {
+            double nt[FILM_TIES_MAX][3];
+            const int nties = l->film_tie ? others_film_normals(sp, l->sphere, rw, nt, FILM_TIES_MAX) : 0;
+            if (nties > 0) {
+                /* a point as near several partners (a mirror plane between
+                 * them) gives each an equal share of its normal part */
+                for (int e = 0; e < nties; e++) {
+                    const double dn = de[0] * nt[e][0] + de[1] * nt[e][1] + de[2] * nt[e][2];
+                    for (int a = 0; a < 3; a++) {
+                        df[a] -= dn * nt[e][a] / nties;
+                    }
+                }
+            } else if (l->film >= 0) {
                 double n[3];
                 spheres_min_image(sp, p->c, sp->s[l->film].c, n);
                 const double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
@@ -249,14 +260,8 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
                     df[a] -= dn * n[a];
                 }
             } else {
-                /* a face's normal part; a point as near several faces (the
-                 * bisector of an edge) gives each its share */
-                int faces[6];
-                const int m = others_film_faces(sp, l->sphere, rw, -2 - l->film, faces);
-                for (int e = 0; e < m; e++) {
-                    const int a = faces[e] / 2;
-                    df[a] -= de[a] / m;
-                }
+                const int a = (-2 - l->film) / 2;
+                df[a] -= de[a];
             }
         }
         double t[3];

@@ -188,7 +188,7 @@ static int refresh_cell(spheres_t *sp, const uint8_t *flags, int k, others_t *o,
         if (full) {
             l->fresh = (cellflags_get(flags, l->xf) & FLAG_FRESH) != 0;
             *fresh_set |= l->fresh;
-            l->film = link_film(sp, k, l->q, dk, delta, o);
+            l->film = link_film(sp, k, l->q, dk, delta, o, &l->film_tie);
         }
     }
     if (full && !note_near(list, n, within)) {
@@ -373,7 +373,7 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     if (!have_ff && pinched(sp, g, flags, X, q)) {
                         l->have |= SPHERES_PINCHED;
                     }
-                    l->film = link_film(sp, k, q, dk, delta, o);
+                    l->film = link_film(sp, k, q, dk, delta, o, &l->film_tie);
                     fresh_set |= l->fresh;
                     linked = 1;
                 }

@@ -34,6 +34,14 @@ static double face_gap(const spheres_t *sp, int k, const double rw[3], int f)
     return f % 2 == 0 ? x - 0.5 : sp->N[a] + 0.5 - x;
 }
 
+/* The gap between sphere k's wall point rw and sphere m whose centre lies
+ * at rel from c_k. */
+static double sphere_gap(const sphere_t *m, const double rw[3], const double rel[3])
+{
+    const double d[3] = {rw[0] + rel[0], rw[1] + rel[1], rw[2] + rel[2]};
+    return sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - m->r;
+}
+
 /* The film zone (README "Lubrication"). Below the cut-off h_c the rigid
  * component adds the film force of the whole region where the surfaces are
  * closer than h_c: in lubrication theory (Reynolds) the pressure under
@@ -48,11 +56,12 @@ static double face_gap(const spheres_t *sp, int k, const double rw[3], int f)
  * nearest surface within h_c of another body's sphere or of a face with a
  * film; -1 none, m a sphere, -2 - f face f. */
 int others_film_partner(const spheres_t *sp, int k, const double rw[3], const int *cand, double (*rel)[3],
-                        int nc)
+                        int nc, uint8_t *tie)
 {
     const sphere_t *p = &sp->s[k];
     double best = sp->film_cutoff;
     int partner = -1;
+    *tie = 0;
     if (!(best > 0.0)) {
         return -1;
     }
@@ -61,8 +70,7 @@ int others_film_partner(const spheres_t *sp, int k, const double rw[3], const in
         if (m->body == p->body) {
             continue; /* one rigid body: no film between its spheres */
         }
-        const double d[3] = {rw[0] + rel[c][0], rw[1] + rel[c][1], rw[2] + rel[c][2]};
-        const double gap = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - m->r;
+        const double gap = sphere_gap(m, rw, rel[c]);
         if (gap < best) {
             best = gap;
             partner = cand[c];
@@ -75,25 +83,72 @@ int others_film_partner(const spheres_t *sp, int k, const double rw[3], const in
             partner = -2 - f;
         }
     }
+    if (partner == -1) {
+        return -1;
+    }
+    /* another partner as near: the point is shared (others_film_normals) */
+    int near = 0;
+    for (int c = 0; c < nc; c++) {
+        near += sp->s[cand[c]].body != p->body && fabs(sphere_gap(&sp->s[cand[c]], rw, rel[c]) - best) <= FILM_TIE;
+    }
+    for (int f = 0; f < 6; f++) {
+        near += sp->film_face[f] && fabs(face_gap(sp, k, rw, f) - best) <= FILM_TIE;
+    }
+    *tie = near > 1;
     return partner;
 }
 
-/* Of a wall point whose film partner is face f, the faces with a film as
- * near to it (f among them, to 1e-12 cells for the rounding of mirrored
- * points): on the bisector of an edge of two walls (three at a corner) the
- * nearest face is a tie, and the first in axis order took the point (the
- * load of a sphere moving along that bisector was 1.4% larger along the
- * later axis, README "Lubrication"). */
-int others_film_faces(const spheres_t *sp, int k, const double rw[3], int f, int faces[6])
+/* A wall point as near several film partners (to FILM_TIE cells, for the
+ * rounding of mirrored points) lies on a mirror plane between them: the
+ * bisector of an edge of two walls (three at a corner), or between two
+ * spheres placed alike about sphere k. The first partner in index and axis
+ * order took it whole, so its normal part went along one normal and the
+ * mirror image of the scene gave another load (a sphere moving along the
+ * bisector of an edge, radius 5: 1.4% more along the later axis; the middle
+ * sphere of three approaching each other in a triangle: 13% between the two
+ * mirrored components, README "Lubrication"). Each of them now takes an
+ * equal share. The unit normals of those partners (the line of centres, a
+ * face's axis), at most max: how many. */
+int others_film_normals(const spheres_t *sp, int k, const double rw[3], double (*n)[3], int max)
 {
-    const double gap = face_gap(sp, k, rw, f);
-    int m = 0;
-    for (int e = 0; e < 6; e++) {
-        if (e == f || (sp->film_face[e] && fabs(face_gap(sp, k, rw, e) - gap) <= 1e-12)) {
-            faces[m++] = e;
+    const sphere_t *p = &sp->s[k];
+    double best = sp->film_cutoff;
+    for (int pass = 0, cnt = 0; pass < 2; pass++) {
+        for (int m = 0; m < sp->n; m++) {
+            if (sp->s[m].body == p->body) {
+                continue;
+            }
+            double rel[3];
+            spheres_min_image(sp, p->c, sp->s[m].c, rel);
+            const double gap = sphere_gap(&sp->s[m], rw, rel);
+            if (pass == 0) {
+                best = fmin(best, gap);
+            } else if (fabs(gap - best) <= FILM_TIE && cnt < max) {
+                const double len = sqrt(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]);
+                for (int a = 0; a < 3; a++) {
+                    n[cnt][a] = rel[a] / len;
+                }
+                cnt++;
+            }
+        }
+        for (int f = 0; f < 6; f++) {
+            if (!sp->film_face[f]) {
+                continue;
+            }
+            const double gap = face_gap(sp, k, rw, f);
+            if (pass == 0) {
+                best = fmin(best, gap);
+            } else if (fabs(gap - best) <= FILM_TIE && cnt < max) {
+                n[cnt][0] = n[cnt][1] = n[cnt][2] = 0.0;
+                n[cnt][f / 2] = 1.0;
+                cnt++;
+            }
+        }
+        if (pass == 1) {
+            return cnt;
         }
     }
-    return m;
+    return 0;
 }
 
 /* 0 when no wall point of sphere k (at r_k from c_k) can have a film

@@ -33,11 +33,17 @@ void others_free(others_t *o);
 /* The other spheres near sphere k into o (others_find, sphere_others.c). */
 void others_find(const spheres_t *sp, int k, others_t *o);
 /* The film partner of sphere k's wall point rw (relative to c_k) among the
- * nc candidates cand at rel: -1 none, m a sphere, -2 - f face f. */
-int others_film_partner(const spheres_t *sp, int k, const double rw[3], const int *cand, double (*rel)[3], int nc);
-/* Of such a wall point with face f its partner, the faces with a film as near
- * (f among them) into faces: how many; they share the point (sphere_fill.c). */
-int others_film_faces(const spheres_t *sp, int k, const double rw[3], int f, int faces[6]);
+ * nc candidates cand at rel: -1 none, m a sphere, -2 - f face f; *tie: 1
+ * when another partner is as near (to FILM_TIE cells). */
+int others_film_partner(const spheres_t *sp, int k, const double rw[3], const int *cand, double (*rel)[3], int nc,
+                        uint8_t *tie);
+/* Partners whose gaps differ by at most this (cells) are as near. */
+#define FILM_TIE 1e-12
+/* The most partners a wall point shares (others_film_normals). */
+enum { FILM_TIES_MAX = 8 };
+/* Of a wall point with a tie, the unit normals of all its nearest
+ * partners, at most max: how many; they share its normal part (sphere_fill.c). */
+int others_film_normals(const spheres_t *sp, int k, const double rw[3], double (*n)[3], int max);
 /* After every link of a list was checked: what a later refresh needs to
  * check only the near cells (others_near_check_holds). */
 void others_note_checked(const spheres_t *sp, link_list_t *list, const others_t *o, int checked, int fresh_set);
@@ -45,14 +51,16 @@ int others_near_check_holds(const spheres_t *sp, const link_list_t *list, const 
 
 /* The film partner of a link's wall point (dk: x_f - c_k; delta, its own
  * ray's: link_delta), the wall point as the fill derives it. */
-static inline int link_film(const spheres_t *sp, int k, int q, const double dk[3], double delta, const others_t *o)
+static inline int link_film(const spheres_t *sp, int k, int q, const double dk[3], double delta, const others_t *o,
+                            uint8_t *tie)
 {
+    *tie = 0;
     if (!o->film) {
         return -1;
     }
     double rw[3];
     spheres_wall_point(dk, delta, q, rw);
-    return others_film_partner(sp, k, rw, o->cand, o->rel, o->nc);
+    return others_film_partner(sp, k, rw, o->cand, o->rel, o->nc, tie);
 }
 
 

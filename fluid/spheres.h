@@ -116,6 +116,7 @@ typedef struct {
                            * bit 2 (SPHERES_PINCHED): x_f - c_q a sphere's or a no-slip/moving wall's, a
                            * pinched pair (spheres_fill) */
     uint8_t has_pre;
+    uint8_t film_tie;     /* another film partner is as near: the wall point is shared (sphere_others.c) */
 } sphere_link_t;
 
 /* A link's pre-collision pair while the links are rebuilt, or saved in a

@@ -344,6 +344,48 @@ static void test_edge_bisector_symmetric(void)
     }
 }
 
+/* Three spheres of three bodies closing in a triangle: B at rest, A and C
+ * moving at it along -(1,1,0) and -(1,0,1), each pair at the same gap. The
+ * scene is its own mirror image in y <-> z (A <-> C), so B's load along y
+ * and z must agree. B's wall points on that mirror plane are as near A as
+ * C, and A (the lower index) took them: their normal part went along B-A
+ * only, and B's y and z loads were up to 13% apart (radius 5, gaps 0.8 to
+ * 0.1 cells, tau 1). */
+static void test_triangle_mirror_symmetric(void)
+{
+    const int L = 28;
+    scene_t s = test_box(L, L, L, 1.0, COLLISION_TRT);
+    s.fluid.magic = 0.25;
+    s.contacts.lubrication.enabled = 1;
+    s.contacts.lubrication.cutoff = 2.0;
+    const double a = 5.0, g0 = 0.7, c = L / 2.0 + 0.25, D = (2.0 * a + g0) / sqrt(2.0), u = 0.003 / sqrt(2.0);
+    scene_sphere_t sph[3] = {{{c, c, c}, a}, {{c - D, c - D, c}, a}, {{c - D, c, c - D}, a}};
+    scene_body_t body[3];
+    for (int b = 0; b < 3; b++) {
+        body[b] = (scene_body_t){.nspheres = 1, .spheres = &sph[b], .density = 2.0, .motion = MOTION_FREE};
+    }
+    s.bodies = body;
+    s.nbodies = 3;
+    fluid_t *fl = test_fluid(&s);
+    CU_ASSERT_FATAL(fl != NULL);
+    const double v[3][3] = {{0.0, 0.0, 0.0}, {u, u, 0.0}, {u, 0.0, u}}, w[3] = {0.0, 0.0, 0.0};
+    double worst = 0.0, f[3], t[3];
+    for (int k = 0; k < 100; k++) {
+        for (int b = 0; b < 3; b++) {
+            for (int x = 0; x < 3; x++) {
+                sph[b].center[x] += v[b][x];
+            }
+            fluid_set_sphere(fl, b, sph[b].center, v[b], w);
+        }
+        test_run(fl, 1);
+        fluid_sphere_load_lattice(fl, 0, f, t);
+        worst = fmax(worst, fabs(f[1] - f[2]) / sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]));
+    }
+    printf("\n    triangle: the middle sphere's y and z loads %.1e apart (of its load)", worst);
+    CU_ASSERT(worst < 1e-12);
+    fluid_free(fl);
+}
+
 void approach_register_tests(int validate)
 {
     CU_pSuite s = CU_add_suite("close approaches", NULL, NULL);
@@ -357,6 +399,7 @@ void approach_register_tests(int validate)
                 test_pinched_cells_damped);
     CU_add_test(s, "sphere along the bisector of an edge of two walls: the same load along both normals",
                 test_edge_bisector_symmetric);
+    CU_add_test(s, "three spheres closing in a triangle: the middle one's load mirrored", test_triangle_mirror_symmetric);
     if (validate) {
         CU_pSuite v = CU_add_suite("close approaches-validate", NULL, NULL);
         CU_add_test(v, "sphere to wall r=8, 96^3: Brenner within 5% at gap/a 2..0.05", test_wall_approach_full);
