@@ -446,7 +446,9 @@ static int touching(const rigid_t *r, int i, int j, const double xi[3], const do
     return rv_norm(d) <= (r->spheres[i].radius + r->spheres[j].radius) * (1.0 + RIGID_TOUCH_TOL);
 }
 
-void rigid_touch_init(rigid_t *r)
+/* The touch flags of every sphere pair as they are now; own_body: only the
+ * pairs of one body count (the others start untouched). */
+static void touch_scan(rigid_t *r, int own_body)
 {
     const int ns = r->nspheres;
     for (int i = 0; i < ns; i++) {
@@ -455,15 +457,16 @@ void rigid_touch_init(rigid_t *r)
         for (int j = i + 1; j < ns; j++) {
             double xj[3];
             rigid_sphere_world(r, r->bodies, j, xj, NULL, NULL);
-            r->touch[(size_t)i * ns + j] =
-                (unsigned char)(r->spheres[i].body == r->spheres[j].body && touching(r, i, j, xi, xj));
+            r->touch[(size_t)i * ns + j] = (unsigned char)((!own_body || r->spheres[i].body == r->spheres[j].body) &&
+                                                           touching(r, i, j, xi, xj));
         }
     }
 }
 
+void rigid_touch_init(rigid_t *r) { touch_scan(r, 1); }
+
 void rigid_touch_update(rigid_t *r)
 {
-    int ns = r->nspheres;
     /* broken necks: the contact-free distance follows the spheres apart and
      * is forgotten once they no longer overlap */
     for (int k = 0; k < r->nconn; k++) {
@@ -477,13 +480,5 @@ void rigid_touch_update(rigid_t *r)
             c->gap0 = dist >= r->spheres[c->a].radius + r->spheres[c->b].radius ? 0.0 : fmax(c->gap0, dist);
         }
     }
-    for (int i = 0; i < ns; i++) {
-        double xi[3];
-        rigid_sphere_world(r, r->bodies, i, xi, NULL, NULL);
-        for (int j = i + 1; j < ns; j++) {
-            double xj[3];
-            rigid_sphere_world(r, r->bodies, j, xj, NULL, NULL);
-            r->touch[(size_t)i * ns + j] = (unsigned char)touching(r, i, j, xi, xj);
-        }
-    }
+    touch_scan(r, 0);
 }
