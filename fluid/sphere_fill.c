@@ -158,9 +158,17 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         const double A = co.a[0] + co.a[1] + co.a[2];
         const double f_old = pops_post(f, q, l->xf);
         /* a pinched pair (x_f between two walls along c_q, sphere_links.c):
-         * bounce-back of the pair's mean, as the other wall does (walls.c) */
-        const double f_back = (l->have & SPHERES_PINCHED) ? 0.5 * (f_old + pops_post(f, o, l->xf)) : f_old;
-        double f_new = co.a[0] * f_back - A * 6.0 * lb_w[q] * rho * cu;
+         * bounce-back of the pair's mean, as the other wall does (walls.c),
+         * and half the moving-wall term on each side, so that the pair
+         * takes the mean of the two walls' velocities. (Bounce-back's whole
+         * term reaches that mean as the steady state of the pair's swap,
+         * each side undoing the other's reflection; with the swap gone,
+         * whole terms gave the pair the walls' sum: the cells in the neck of
+         * a translating dumbbell moved at twice its speed.) */
+        const int pinched = (l->have & SPHERES_PINCHED) != 0;
+        const double f_back = pinched ? 0.5 * (f_old + pops_post(f, o, l->xf)) : f_old;
+        const double A_wall = pinched ? 0.5 * A : A;
+        double f_new = co.a[0] * f_back - A_wall * 6.0 * lb_w[q] * rho * cu;
         const int linear = co.a[1] != 0.0 || co.b[0] != 0.0 || co.b[1] != 0.0;
         const double f_ff = (linear || co.corr != 0.0) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
         if (linear) {
@@ -271,12 +279,13 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
             cl[3 + a] += t[a];
         }
         /* the moving-wall term makes df react at once to the wall velocity:
-         * d(df)/d(u_w) = -A 6 w rho c c^T; its isotropic parts for v and for
+         * d(df)/d(u_w) = -A 6 w rho c c^T (A halved on a pinched pair, as
+         * above); its isotropic parts for v and for
          * w (u_w = v + w x r_w, so c . u_w = c . v + w . (r_w x c)) */
         const double cq[3] = {lb_cd[q][0], lb_cd[q][1], lb_cd[q][2]};
         double rc[3];
         spheres_cross(rw, cq, rc);
-        const double k = A * 6.0 * lb_w[q] * rho / 3.0;
+        const double k = A_wall * 6.0 * lb_w[q] * rho / 3.0;
         cl[6] += k * lb_cc[q];
         cl[7] += k * (rc[0] * rc[0] + rc[1] * rc[1] + rc[2] * rc[2]);
     }

@@ -26,6 +26,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 static void print_points(const char *what, const approach_point_t *p, int n)
 {
@@ -436,6 +437,52 @@ static void test_prescribed_sphere_keeps_lattice_force(void)
     CU_ASSERT(fabs(fz[1][1] - fz[1][0]) > 0.1 * fabs(fz[1][0]));
 }
 
+/* The pinched cells in the neck of a rigid dumbbell (two touching spheres of
+ * one body) and between a sphere and a floor it slides on take the mean of
+ * their walls' velocities: the neck cells of a translating dumbbell move with
+ * it, and the cells under a sliding sphere at most at its speed. With each
+ * side's whole moving-wall term (the first version of the pinched pairs)
+ * the neck cells moved at 2.0 times the dumbbell's speed. */
+static void test_pinched_cells_move_with_walls(void)
+{
+    for (int floor = 0; floor < 2; floor++) {
+        const int L = 24;
+        scene_t s = test_box(L, L, L, 0.8, COLLISION_TRT);
+        if (floor) {
+            s.domain.faces[4].type = FACE_NO_SLIP;
+            s.domain.faces[5].type = FACE_NO_SLIP;
+        }
+        s.fluid.boundary_scheme = BOUNDARY_BOUNCE_BACK;
+        const double U[3] = {0.004, 0.002, floor ? 0.0 : 0.001}, speed = sqrt(U[0] * U[0] + U[1] * U[1] + U[2] * U[2]);
+        scene_sphere_t sph[2] = {{{8.3, 11.6, floor ? 4.0 : 11.8}, 4.0}, {{16.3, 11.6, 11.8}, 4.0}};
+        scene_body_t body = {.nspheres = floor ? 1 : 2, .spheres = sph, .density = 2.0, .motion = MOTION_PRESCRIBED};
+        memcpy(body.velocity, U, sizeof U);
+        s.bodies = &body;
+        s.nbodies = 1;
+        fluid_t *fl = test_fluid(&s);
+        CU_ASSERT_FATAL(fl != NULL);
+        test_run(fl, 300);
+        const int n = L * L * L;
+        double *u = malloc(sizeof(double) * 3 * n);
+        unsigned char *flags = malloc(n);
+        CU_ASSERT_FATAL(u != NULL && flags != NULL);
+        fluid_moments_lattice(fl, NULL, u);
+        fluid_flags(fl, flags);
+        double umax = 0.0;
+        for (int i = 0; i < n; i++) {
+            if (flags[i] == 0) {
+                umax = fmax(umax, sqrt(u[3 * i] * u[3 * i] + u[3 * i + 1] * u[3 * i + 1] + u[3 * i + 2] * u[3 * i + 2]));
+            }
+        }
+        printf("\n    %s: fastest fluid cell %.3f of the body's speed", floor ? "sphere sliding on a floor" : "dumbbell",
+               umax / speed);
+        CU_ASSERT(umax < 1.2 * speed);
+        free(u);
+        free(flags);
+        fluid_free(fl);
+    }
+}
+
 void approach_register_tests(int validate)
 {
     CU_pSuite s = CU_add_suite("close approaches", NULL, NULL);
@@ -447,6 +494,8 @@ void approach_register_tests(int validate)
                 test_film_zone_keeps_ambient_pressure);
     CU_add_test(s, "pinched cells (a sphere on a floor, two spheres 0.02 apart): flow decays, mass kept",
                 test_pinched_cells_damped);
+    CU_add_test(s, "pinched cells move with their walls (a translating dumbbell's neck, a sphere sliding on a floor)",
+                test_pinched_cells_move_with_walls);
     CU_add_test(s, "sphere along the bisector of an edge of two walls: the same load along both normals",
                 test_edge_bisector_symmetric);
     CU_add_test(s, "three spheres closing in a triangle: the middle one's load mirrored", test_triangle_mirror_symmetric);
