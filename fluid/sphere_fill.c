@@ -158,16 +158,22 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         const double A = co.a[0] + co.a[1] + co.a[2];
         const double f_old = pops_post(f, q, l->xf);
         /* a pinched pair (x_f between two walls along c_q, sphere_links.c):
-         * bounce-back of the pair's mean, as the other wall does (walls.c),
-         * and half the moving-wall term on each side, so that the pair
-         * takes the mean of the two walls' velocities. (Bounce-back's whole
-         * term reaches that mean as the steady state of the pair's swap,
-         * each side undoing the other's reflection; with the swap gone,
-         * whole terms gave the pair the walls' sum: the cells in the neck of
-         * a translating dumbbell moved at twice its speed.) */
+         * bounce-back of the pair's mean, as the other wall does (walls.c).
+         * Bounce-back's moving-wall terms reach the mean of the two walls'
+         * velocities as the steady state of the pair's swap, each side
+         * undoing the other's reflection; with the swap gone, whole terms
+         * give the pair their sum. Between two spheres (the neck of an
+         * agglomerate, two bodies that touch: mostly moving together) each
+         * side takes half its term, so that the pair moves with them (with
+         * whole terms the cells in the neck of a translating dumbbell moved
+         * at twice its speed); its mass then changes by half bounce-back's
+         * for the two surfaces' relative motion. Against a domain wall each
+         * side keeps its whole term, the pair's mass as with bounce-back (a
+         * sphere settling onto a floor lost 8e-4 of the fluid's mass with
+         * half terms), its velocity the sphere's plus the wall's. */
         const int pinched = (l->have & SPHERES_PINCHED) != 0;
         const double f_back = pinched ? 0.5 * (f_old + pops_post(f, o, l->xf)) : f_old;
-        const double A_wall = pinched ? 0.5 * A : A;
+        const double A_wall = (l->have & SPHERES_PINCHED_SPHERE) ? 0.5 * A : A;
         double f_new = co.a[0] * f_back - A_wall * 6.0 * lb_w[q] * rho * cu;
         const int linear = co.a[1] != 0.0 || co.b[0] != 0.0 || co.b[1] != 0.0;
         const double f_ff = (linear || co.corr != 0.0) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
@@ -279,8 +285,8 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
             cl[3 + a] += t[a];
         }
         /* the moving-wall term makes df react at once to the wall velocity:
-         * d(df)/d(u_w) = -A 6 w rho c c^T (A halved on a pinched pair, as
-         * above); its isotropic parts for v and for
+         * d(df)/d(u_w) = -A 6 w rho c c^T (A halved between two spheres'
+         * pinched walls, as above); its isotropic parts for v and for
          * w (u_w = v + w x r_w, so c . u_w = c . v + w . (r_w x c)) */
         const double cq[3] = {lb_cd[q][0], lb_cd[q][1], lb_cd[q][2]};
         double rc[3];

@@ -38,13 +38,14 @@ static inline __attribute__((always_inline)) int fluid_at(spheres_t *sp, const g
     return (flag & ~FLAG_FRESH) == 0; /* fluid, uncovered this step or not */
 }
 
-/* 1 when the fluid cell at X (global, unwrapped) lies between two walls
+/* Whether the fluid cell at X (global, unwrapped) lies between two walls
  * along c_q: x_f + c_q is a sphere's, and x_f - c_q is a solid cell (a
- * sphere's link sends it back) or beyond a no-slip or moving wall (a
- * bounce-back of walls.c, whose face outranks every other kind a corner
- * cell may cross). Both walls then send back the pair's mean
- * (spheres_fill, walls.c fill_links): the same test on either side. */
-static int pinched(const spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q)
+ * sphere's link sends it back: SPHERES_PINCHED | SPHERES_PINCHED_SPHERE)
+ * or beyond a no-slip or moving wall (a bounce-back of walls.c, whose face
+ * outranks every other kind a corner cell may cross: SPHERES_PINCHED); 0
+ * when not. Both walls then send back the pair's mean (spheres_fill,
+ * walls.c fill_links): the same test on either side. */
+static unsigned pinched(const spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q)
 {
     int B[3], W[3], beyond = 0, wall = 0;
     for (int a = 0; a < 3; a++) {
@@ -55,10 +56,12 @@ static int pinched(const spheres_t *sp, const grid_t *g, const uint8_t *flags, c
         }
     }
     if (beyond) {
-        return wall;
+        return wall ? SPHERES_PINCHED : 0;
     }
     return spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W) != 0 &&
-           (cellflags_get(flags, grid_index(g, W[0], W[1], W[2])) & FLAG_SOLID) != 0;
+                   (cellflags_get(flags, grid_index(g, W[0], W[1], W[2])) & FLAG_SOLID) != 0
+               ? SPHERES_PINCHED | SPHERES_PINCHED_SPHERE
+               : 0;
 }
 
 /* The links of sphere k: every fluid cell x_f in its box (plus a cell) and
@@ -370,8 +373,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     const int have_ff = fluid_at(sp, g, flags, Y, deep, i, off[q], q, 1, &l->xff);
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, deep, i, off[q], q, 2, &l->xfff);
                     l->have = (uint8_t)(have_ff | have_fff << 1);
-                    if (!have_ff && pinched(sp, g, flags, X, q)) {
-                        l->have |= SPHERES_PINCHED;
+                    if (!have_ff) {
+                        l->have |= (uint8_t)pinched(sp, g, flags, X, q);
                     }
                     l->film = link_film(sp, k, q, dk, delta, o, &l->film_tie);
                     fresh_set |= l->fresh;

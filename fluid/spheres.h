@@ -114,7 +114,7 @@ typedef struct {
     uint8_t outer;        /* x_f lies in an outer row of the block: y or z at its faces (spheres_fill) */
     uint8_t have;         /* x_f - c_q fluid: bit 0; x_f - 2 c_q too: bit 1 (boundary_coefficients);
                            * bit 2 (SPHERES_PINCHED): x_f - c_q a sphere's or a no-slip/moving wall's, a
-                           * pinched pair (spheres_fill) */
+                           * pinched pair (spheres_fill); bit 3 (SPHERES_PINCHED_SPHERE): a sphere's */
     uint8_t has_pre;
     uint8_t film_tie;     /* another film partner is as near: the wall point is shared (sphere_others.c) */
 } sphere_link_t;
@@ -132,8 +132,10 @@ typedef struct {
  * then goes without the correction for that step. */
 #define SPHERES_MR_DECAY_MIN 0.05
 
-/* sphere_link_t.have: x_f lies between two walls along c_q (sphere_links.c) */
+/* sphere_link_t.have: x_f lies between two walls along c_q, and the other
+ * one is a sphere's (sphere_links.c pinched) */
 #define SPHERES_PINCHED 4
+#define SPHERES_PINCHED_SPHERE 8
 
 typedef struct {
     sphere_link_t *l;

@@ -591,28 +591,25 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
     for (ptrdiff_t i = l0; i < n; i++) {
         const ghost_link_t *l = &w->links[i];
         const size_t dst = pops_in_slot(p, l->q, l->cell);
-        double bounced = pops_post(p, lb_opposite(l->q), l->cell), moving = 1.0;
+        double bounced = pops_post(p, lb_opposite(l->q), l->cell);
         if (l->kind == LINK_BOUNCE && pinched(w, l)) {
             /* a pinched pair: the cell lies between this wall and a sphere
              * along c_q, so both its populations along that line are sent
              * back by walls. Each wall (here, and the sphere's link:
              * sphere_fill.c) sends back the mean of the two instead of the
-             * one that reached it, with half its moving-wall term: the pair
-             * keeps its mass and takes the mean of the walls' velocities,
-             * where plain bounce-back swaps the two each step and keeps
-             * their difference for ever (a momentum that no collision
-             * damps, as the cell has no fluid neighbour along c_q: README
-             * "Touching surfaces") */
+             * one that reached it, with its whole moving-wall term: the
+             * pair keeps its mass as with bounce-back, which swaps the two
+             * each step and keeps their difference for ever (a momentum
+             * that no collision damps, as the cell has no fluid neighbour
+             * along c_q: README "Touching surfaces") */
             bounced = 0.5 * (bounced + w->pre[i].v[2]);
-            moving = 0.5;
         }
         switch (l->kind) {
         case LINK_COPY:
             break; /* all in w->copies */
         case LINK_BOUNCE: {
             const double v = l->coef != 0.0 || w->kappa != 0.0
-                                 ? bounced + moving * l->coef * w->pre[i].v[0] +
-                                       (w->kappa != 0.0 ? w->pre[i].v[1] : 0.0)
+                                 ? bounced + l->coef * w->pre[i].v[0] + (w->kappa != 0.0 ? w->pre[i].v[1] : 0.0)
                                  : bounced;
             pops_write(p, l->q, dst, v);
             break;
