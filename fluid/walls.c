@@ -143,9 +143,6 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
     /* the slip of half-way bounce-back under TRT (walls.h); BGK keeps the
      * paper's plain bounce-back and its slip (Lambda = (tau - 1/2)^2) */
     w->kappa = s->fluid.collision == COLLISION_TRT ? (16.0 * s->fluid.magic - 3.0) / 24.0 : 0.0;
-    for (int q = 0; q < LB_Q; q++) {
-        w->off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
-    }
     size_t cap = 0, capc = 0;
     if (g->ncells > UINT32_MAX) {
         return log_msg(log, STATUS_ERROR, "fluid",
@@ -223,6 +220,19 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                         }
                         l.kind = LINK_BOUNCE;
                         l.pinch = face->type != FACE_VELOCITY_INLET;
+                        /* x_f + c_q, wrapped across a periodic face as the
+                         * sphere stage maps it (its ghost, flagged only when
+                         * the face is cut between ranks: spheres_locate) */
+                        int xp[3];
+                        for (int a = 0; a < 3; a++) {
+                            xp[a] = xf[a] + lb_c[q][a];
+                            const int side = xp[a] < 1 ? 0 : 1;
+                            if ((xp[a] < 1 || xp[a] > g->n[a]) && !decomp_exchanged(d, a, side) &&
+                                s->domain.faces[2 * a + side].type == FACE_PERIODIC) {
+                                xp[a] += side == 0 ? g->n[a] : -g->n[a];
+                            }
+                        }
+                        l.cell3 = grid_index(g, xp[0], xp[1], xp[2]);
                         l.coef = 6.0 * lb_w[q] * (lb_c[q][0] * uw[0] + lb_c[q][1] * uw[1] + lb_c[q][2] * uw[2]);
                         l.axis = (int16_t)(best / 2);
                         l.cell2 = l.cell;
@@ -443,7 +453,7 @@ void walls_halo_end(const walls_t *w, const grid_t *g, const pops_t *p, int a)
 static inline int pinched(const walls_t *w, const ghost_link_t *l)
 {
     return l->pinch && w->flags != NULL &&
-           (cellflags_get(w->flags, (size_t)((ptrdiff_t)l->cell + w->off[l->q])) & FLAG_SOLID) != 0;
+           (cellflags_get(w->flags, l->cell3) & FLAG_SOLID) != 0;
 }
 
 void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)

@@ -54,6 +54,8 @@ typedef struct {
     int16_t kind;
     int16_t axis;  /* bounce: the axis normal to the face (slip correction) */
     int16_t pinch; /* bounce of a no-slip or moving wall: a pinched pair is closed (walls.c fill_links) */
+    size_t cell3;  /* bounce with pinch: the cell x_f + c_q, across a periodic face its image in the block
+                    * (whose flags the sphere stage sets; the ghost's it leaves): solid, the pair is pinched */
 } ghost_link_t;
 
 /* Copy link: in_slot(q, cell) <- post_slot(sq, src); 12 bytes, for the many
@@ -81,7 +83,6 @@ typedef struct {
     int periodic[3];     /* periodic axes with one rank: filled by a copy of the ghost layers, no list (walls.c) */
     double kappa;        /* the slip correction of no-slip and moving walls (above); 0 without */
     const uint8_t *flags; /* the cell flags (fluid.c, cellflags.h): the correction reads fluid cells only */
-    ptrdiff_t off[19];    /* the grid offset of each c_q (a pinched pair's solid cell, fill_links) */
     decomp_t *d;         /* the block (not owned): faces to other ranks are filled by its exchange */
 } walls_t;
 
