@@ -152,7 +152,26 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         for (int a = 0; a < 3; a++) {
             uw[a] = p->v[a] + wr[a];
         }
-        const double cu = lb_cd[q][0] * uw[0] + lb_cd[q][1] * uw[1] + lb_cd[q][2] * uw[2];
+        double cu = lb_cd[q][0] * uw[0] + lb_cd[q][1] * uw[1] + lb_cd[q][2] * uw[2];
+        if (l->have & SPHERES_PINCHED_SPHERE) {
+            /* a pair pinched between this sphere's wall (velocity u_A) and
+             * sphere m's (u_B, at the point half a link back): each side
+             * sends back the pair's mean less 6 w rho c.(3/4 u_A - 1/4 u_B),
+             * so that the pair moves at (u_A + u_B)/2 and its mass changes by
+             * 6 w rho c.(u_B - u_A), bounce-back's (below) */
+            const sphere_t *m = &sp->s[l->xfff];
+            double rel[3], rb[3], wb[3];
+            spheres_min_image(sp, p->c, m->c, rel); /* c_k - c_m */
+            for (int a = 0; a < 3; a++) {
+                rb[a] = dk[a] - 0.5 * lb_cd[q][a] + rel[a];
+            }
+            spheres_cross(m->w, rb, wb);
+            double cub = 0.0;
+            for (int a = 0; a < 3; a++) {
+                cub += lb_cd[q][a] * (m->v[a] + wb[a]);
+            }
+            cu = 0.75 * cu - 0.25 * cub;
+        }
         boundary_coef_t co;
         boundary_coefficients(sp->scheme, delta, l->have & 1, l->have >> 1 & 1, sp->omega_minus, &co);
         const double A = co.a[0] + co.a[1] + co.a[2];
@@ -162,19 +181,20 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
          * Bounce-back's moving-wall terms reach the mean of the two walls'
          * velocities as the steady state of the pair's swap, each side
          * undoing the other's reflection; with the swap gone, whole terms
-         * give the pair their sum. Between two spheres (the neck of an
-         * agglomerate, two bodies that touch: mostly moving together) each
-         * side takes half its term, so that the pair moves with them (with
-         * whole terms the cells in the neck of a translating dumbbell moved
-         * at twice its speed); its mass then changes by half bounce-back's
-         * for the two surfaces' relative motion. Against a domain wall each
-         * side keeps its whole term, the pair's mass as with bounce-back (a
-         * sphere settling onto a floor lost 8e-4 of the fluid's mass with
-         * half terms), its velocity the sphere's plus the wall's. */
+         * give the pair their sum (the cells in the neck of a translating
+         * dumbbell moved at twice its speed). Between two spheres each side
+         * knows both velocities (cu above): the pair moves at their mean and
+         * keeps bounce-back's mass (half terms lost mass wherever the two
+         * moved apart: breakup_shear's fragments 4.6e-4 of the fluid's).
+         * Against a domain wall each side keeps its whole term, the pair's
+         * mass as with bounce-back (a sphere settling onto a floor lost 8e-4
+         * of the fluid's mass with half terms), its velocity the sphere's
+         * plus the wall's. */
         const int pinched = (l->have & SPHERES_PINCHED) != 0;
         const double f_back = pinched ? 0.5 * (f_old + pops_post(f, o, l->xf)) : f_old;
-        const double A_wall = (l->have & SPHERES_PINCHED_SPHERE) ? 0.5 * A : A;
-        double f_new = co.a[0] * f_back - A_wall * 6.0 * lb_w[q] * rho * cu;
+        /* the term's response to this sphere's own velocity (the drag coefficients below) */
+        const double A_wall = (l->have & SPHERES_PINCHED_SPHERE) ? 0.75 * A : A;
+        double f_new = co.a[0] * f_back - A * 6.0 * lb_w[q] * rho * cu;
         const int linear = co.a[1] != 0.0 || co.b[0] != 0.0 || co.b[1] != 0.0;
         const double f_ff = (linear || co.corr != 0.0) && l->xff != l->xf ? spheres_post(sp, f, q, l->xff) : 0.0;
         if (linear) {
@@ -285,7 +305,7 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
             cl[3 + a] += t[a];
         }
         /* the moving-wall term makes df react at once to the wall velocity:
-         * d(df)/d(u_w) = -A 6 w rho c c^T (A halved between two spheres'
+         * d(df)/d(u_w) = -A 6 w rho c c^T (3/4 A between two spheres'
          * pinched walls, as above); its isotropic parts for v and for
          * w (u_w = v + w x r_w, so c . u_w = c . v + w . (r_w x c)) */
         const double cq[3] = {lb_cd[q][0], lb_cd[q][1], lb_cd[q][2]};

@@ -40,12 +40,14 @@ static inline __attribute__((always_inline)) int fluid_at(spheres_t *sp, const g
 
 /* Whether the fluid cell at X (global, unwrapped) lies between two walls
  * along c_q: x_f + c_q is a sphere's, and x_f - c_q is a solid cell (a
- * sphere's link sends it back: SPHERES_PINCHED | SPHERES_PINCHED_SPHERE)
- * or beyond a no-slip or moving wall (a bounce-back of walls.c, whose face
- * outranks every other kind a corner cell may cross: SPHERES_PINCHED); 0
- * when not. Both walls then send back the pair's mean (spheres_fill,
- * walls.c fill_links): the same test on either side. */
-static unsigned pinched(const spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q)
+ * sphere's link sends it back: SPHERES_PINCHED | SPHERES_PINCHED_SPHERE,
+ * and the sphere that covers it in *partner) or beyond a no-slip or moving
+ * wall (a bounce-back of walls.c, whose face outranks every other kind a
+ * corner cell may cross: SPHERES_PINCHED); 0 when not. Both walls then
+ * send back the pair's mean (spheres_fill, walls.c fill_links): the same
+ * test on either side. */
+static unsigned pinched(const spheres_t *sp, const grid_t *g, const uint8_t *flags, const int X[3], int q,
+                        const double dk[3], const others_t *o, size_t *partner)
 {
     int B[3], W[3], beyond = 0, wall = 0;
     for (int a = 0; a < 3; a++) {
@@ -58,10 +60,24 @@ static unsigned pinched(const spheres_t *sp, const grid_t *g, const uint8_t *fla
     if (beyond) {
         return wall ? SPHERES_PINCHED : 0;
     }
-    return spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W) != 0 &&
-                   (cellflags_get(flags, grid_index(g, W[0], W[1], W[2])) & FLAG_SOLID) != 0
-               ? SPHERES_PINCHED | SPHERES_PINCHED_SPHERE
-               : 0;
+    if (!(spheres_locate(sp->lo, sp->nb, sp->open, sp->periodic, sp->N, B, W) != 0 &&
+          (cellflags_get(flags, grid_index(g, W[0], W[1], W[2])) & FLAG_SOLID) != 0)) {
+        return 0;
+    }
+    /* the sphere that covers x_f - c_q (k itself only as a periodic image) */
+    for (int c = 0; c < o->nc; c++) {
+        const sphere_t *m = &sp->s[o->cand[c]];
+        double d2 = 0.0;
+        for (int a = 0; a < 3; a++) {
+            const double d = dk[a] - lb_c[q][a] + o->rel[c][a]; /* rel: c_k - c_m */
+            d2 += d * d;
+        }
+        if (d2 <= m->r * m->r) {
+            *partner = (size_t)o->cand[c];
+            return SPHERES_PINCHED | SPHERES_PINCHED_SPHERE;
+        }
+    }
+    return SPHERES_PINCHED; /* not found (a halo's sphere): as against a wall */
 }
 
 /* The links of sphere k: every fluid cell x_f in its box (plus a cell) and
@@ -374,7 +390,8 @@ static int sphere_links(spheres_t *sp, const grid_t *g, const uint8_t *flags, in
                     const int have_fff = have_ff && fluid_at(sp, g, flags, Y, deep, i, off[q], q, 2, &l->xfff);
                     l->have = (uint8_t)(have_ff | have_fff << 1);
                     if (!have_ff) {
-                        l->have |= (uint8_t)pinched(sp, g, flags, X, q);
+                        /* x_f - 2 c_q is not read: its slot holds a pinched pair's partner */
+                        l->have |= (uint8_t)pinched(sp, g, flags, X, q, dk, o, &l->xfff);
                     }
                     l->film = link_film(sp, k, q, dk, delta, o, &l->film_tie);
                     fresh_set |= l->fresh;

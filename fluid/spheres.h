@@ -133,7 +133,7 @@ typedef struct {
 #define SPHERES_MR_DECAY_MIN 0.05
 
 /* sphere_link_t.have: x_f lies between two walls along c_q, and the other
- * one is a sphere's (sphere_links.c pinched) */
+ * one is a sphere's, whose index xfff then holds (sphere_links.c pinched) */
 #define SPHERES_PINCHED 4
 #define SPHERES_PINCHED_SPHERE 8
 
