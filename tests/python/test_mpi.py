@@ -230,34 +230,42 @@ def test_sphere_settles_across_rank_boundaries(tmp_path, ranks):
     assert vel[-1, 0, 2] < -1e-3, "the sphere settles (so the test covers a moving sphere)"
 
 
-PINCHED = """
+def pinched_scene(cells, x_faces, center, end, every, extra_fluid=""):
+    """A fixed sphere of radius 3.3 cells touching the floor of a box of
+    no-slip walls (x faces: x_faces), started in a uniform flow, with field
+    snapshots: the cells between sphere and floor are pinched."""
+    L = cells * 1e-4
+    return f"""
 domain:
-  size: [0.0016, 0.0016, 0.0016]
+  size: [{L!r}, {L!r}, {L!r}]
   faces:
-    x_min: {type: no_slip}
-    x_max: {type: no_slip}
-    y_min: {type: no_slip}
-    y_max: {type: no_slip}
-    z_min: {type: no_slip}
-    z_max: {type: no_slip}
+    x_min: {{type: {x_faces}}}
+    x_max: {{type: {x_faces}}}
+    y_min: {{type: no_slip}}
+    y_max: {{type: no_slip}}
+    z_min: {{type: no_slip}}
+    z_max: {{type: no_slip}}
 fluid:
   density: 1000
   viscosity: 1e-06
   dx: 1e-4
-  tau: 0.7
+  tau: 0.7{extra_fluid}
   initial_velocity: [0.0001, 0.0002, -0.0003]
 bodies:
   - name: s
     density: 1500
     motion: fixed
     spheres:
-      - {center: [0.000829, 0.000781, 0.00033], radius: 0.00033}
+      - {{center: [{center[0]!r}, {center[1]!r}, 0.00033], radius: 0.00033}}
 run:
-  end_time: 0.06
-  output_interval: 0.01
+  end_time: {end!r}
+  output_interval: {every!r}
   fields: true
-  field_interval: 0.03
+  field_interval: {end / 2!r}
 """
+
+
+PINCHED = pinched_scene(16, "no_slip", (0.000829, 0.000781), 0.06, 0.01)
 
 
 @pytest.mark.parametrize("skip", ["1", "0"])
@@ -275,35 +283,7 @@ def test_pinched_cells_at_a_cut_wall(tmp_path, skip):
     assert_identical(outs)
 
 
-PINCHED_PERIODIC = """
-domain:
-  size: [0.0014, 0.0014, 0.0014]
-  faces:
-    x_min: {type: periodic}
-    x_max: {type: periodic}
-    y_min: {type: no_slip}
-    y_max: {type: no_slip}
-    z_min: {type: no_slip}
-    z_max: {type: no_slip}
-fluid:
-  density: 1000
-  viscosity: 1e-06
-  dx: 1e-4
-  tau: 0.7
-  boundary_scheme: bounce_back
-  initial_velocity: [0.0001, 0.0002, -0.0003]
-bodies:
-  - name: s
-    density: 1500
-    motion: fixed
-    spheres:
-      - {center: [0.00004, 0.00071, 0.00033], radius: 0.00033}
-run:
-  end_time: 0.1
-  output_interval: 0.025
-  fields: true
-  field_interval: 0.05
-"""
+PINCHED_PERIODIC = pinched_scene(14, "periodic", (0.00004, 0.00071), 0.1, 0.025, "\n  boundary_scheme: bounce_back")
 
 
 def test_pinched_cells_across_a_periodic_face(tmp_path):
