@@ -223,8 +223,8 @@ const cyaml_schema_field_t *scene_schema_field(const cyaml_schema_value_t *v, co
 
 bool scene_schema_parse_index(const char *s, size_t len, long *out)
 {
-    if (len == 0 || len > 9) {
-        return false;
+    if (len == 0 || len > 9 || (len > 1 && s[0] == '0')) {
+        return false; /* "01" would name entry 1 as well as "1" */
     }
     long v = 0;
     for (size_t i = 0; i < len; i++) {

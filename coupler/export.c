@@ -10,7 +10,8 @@
  *   documentation/index.html      what the FMU is, its step, its variables
  *                                 (FMI 2.0 section 2.3), generated per scene
  * The GUID is a hash of that scene text (fmi_guid), checked by
- * fmi2Instantiate. A scene without free bodies gets no rigid.fmu.
+ * fmi2Instantiate. A scene without free bodies gets no rigid.fmu, and one
+ * left in DIR by an earlier export is removed.
  *
  * ModelStructure (FMI 2.0.x section 2.2.8) says what each output depends on.
  * Outputs: the dependencies hold at communication points, where the knowns
@@ -521,8 +522,27 @@ int export_fmus(const scene_t *scene, const char *dir, const char *lib_dir, int 
         }
         printf("%s: %d parameters, %d inputs, %d outputs\n", jobs[k].out, npar, nin, nout);
     }
-    if (njobs == 1 && verbose) {
-        printf("no rigid.fmu: the scene has no free bodies, so the fluid runs alone\n");
+    if (njobs == 1) {
+        /* a rigid.fmu left by an earlier export of another scene would pair
+         * with this fluid.fmu in any master that takes the folder's FMUs */
+        char stale[sizeof jobs[0].out];
+        struct stat rs;
+        const int n = snprintf(stale, sizeof stale, "%s/%s.fmu", dir, rigid_fmi_model.identifier);
+        if (n > 0 && n < (int)sizeof stale && lstat(stale, &rs) == 0 && S_ISREG(rs.st_mode)) {
+            if (remove(stale) != 0) {
+                log_msg(log, STATUS_ERROR, CAT,
+                        "cannot remove %s, left by an earlier export (this scene has no free bodies, so it does not "
+                        "belong with the new fluid.fmu): %s",
+                        stale, strerror(errno));
+                goto done;
+            }
+            if (verbose) {
+                printf("removed %s of an earlier export: it does not belong with this scene\n", stale);
+            }
+        }
+        if (verbose) {
+            printf("no rigid.fmu: the scene has no free bodies, so the fluid runs alone\n");
+        }
     }
     rc = 0;
 done:

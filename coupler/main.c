@@ -75,6 +75,22 @@ static int parse_long(const char *opt, const char *s, long lo, long hi, long *ou
     return 1;
 }
 
+/* An option given twice, such as -o A -o B: which one was meant? Refused
+ * rather than the last one taken silently (--set and --size repeat). */
+static int repeated(const char *cmd, const char *opt, const char **seen, int *nseen, int cap)
+{
+    for (int k = 0; k < *nseen; k++) {
+        if (strcmp(seen[k], opt) == 0) {
+            fprintf(stderr, "coupler %s: option '%s' given twice; give it once\n", cmd, opt);
+            return 1;
+        }
+    }
+    if (*nseen < cap) {
+        seen[(*nseen)++] = opt;
+    }
+    return 0;
+}
+
 /* Default output: the scene's file name with .h5 in the current folder. */
 static void default_output(const char *scene, char *buf, size_t n)
 {
@@ -282,8 +298,13 @@ static int run_main(int argc, char **argv)
         int sizes[MAX_SIZES], nsizes = 0, json = 0;
         const char *coupled = NULL;
         long csteps = 200;
+        const char *seen[8];
+        int nseen = 0;
         for (int i = 2; i < argc; i++) {
             long v;
+            if (strcmp(argv[i], "--size") != 0 && repeated(cmd, argv[i], seen, &nseen, 8)) {
+                return usage(NULL);
+            }
             if (strcmp(argv[i], "--json") == 0) {
                 json = 1;
             } else if (strcmp(argv[i], "--coupled") == 0 && i + 1 < argc) {
@@ -326,9 +347,14 @@ static int run_main(int argc, char **argv)
     int nsets = 0, quiet = 0;
     long steps = 0, every = 1, ranks = 0;
     double checkpoint = 0.0, checkpoint_every = 0.0;
+    const char *seen[32];
+    int nseen = 0;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
         const int has_value = i + 1 < argc;
+        if (a[0] == '-' && strcmp(a, "--set") != 0 && repeated(cmd, a, seen, &nseen, 32)) {
+            return usage(NULL);
+        }
         if (strcmp(a, "--set") == 0 && has_value) {
             if (nsets == MAX_SETS) {
                 return usage("at most 256 --set options");

@@ -271,6 +271,46 @@ def test_cli_usage_errors(coupler, tmp_path):
     assert p.returncode == 1 and "missing.yaml" in p.stderr
 
 
+@pytest.mark.parametrize("args", [
+    ("run", "-o", "a.h5", "-o", "b.h5"),
+    ("run", "--steps", "2", "--steps", "3"),
+    ("check", "--ranks", "2", "--ranks", "4"),
+    ("export", "-d", "one", "-d", "two"),
+])
+def test_an_option_given_twice_is_refused(coupler, tmp_path, args):
+    """`-o a.h5 -o b.h5` wrote b.h5 without a word: which one was meant? Now a usage error
+    naming the option, before anything is read or written."""
+    cmd, *opts = args
+    p = run(cmd, MODELS / "channel_poiseuille.yaml", *opts, cwd=tmp_path)
+    assert p.returncode == 2, p.stderr
+    assert f"coupler {cmd}: option '{opts[2]}' given twice; give it once" in p.stderr
+    assert list(tmp_path.iterdir()) == []
+    p = run("bench", "--coupled", "x.yaml", "--coupled", "y.yaml")
+    assert p.returncode == 2 and "option '--coupled' given twice" in p.stderr
+
+
+def test_a_list_index_with_a_leading_zero_is_refused(coupler):
+    """`bodies.01.density` named body 1, as `bodies.1` does: the message says indices are
+    0, 1, ..., so "01" is refused with it."""
+    p = run("check", MODELS / "sinking_sphere.yaml", "--set", "bodies.00.density=3000")
+    assert p.returncode == 1
+    assert "bodies is a list, so '00' must be an index 0, 1, ..." in p.stderr, p.stderr
+    assert run("check", MODELS / "sinking_sphere.yaml", "--set", "bodies.0.density=3000").returncode == 0
+
+
+def test_export_removes_an_earlier_exports_rigid_fmu(coupler, tmp_path):
+    """A scene without free bodies gets no rigid.fmu; one left in the folder by an earlier
+    export stayed there beside the new fluid.fmu, a pair from two scenes for any master that
+    takes the folder's FMUs."""
+    scene = MODELS / "sinking_sphere.yaml"
+    assert run("export", scene, "-d", tmp_path).returncode == 0
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["fluid.fmu", "rigid.fmu"]
+    p = run("export", scene, "-d", tmp_path, "--set", "bodies.0.motion=fixed")
+    assert p.returncode == 0, p.stderr
+    assert f"removed {tmp_path}/rigid.fmu of an earlier export" in p.stdout, p.stdout
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["fluid.fmu"]
+
+
 def test_readme_command_line_lists_every_command_of_help(coupler):
     """README "Command line" left out `coupler bench --coupled SCENE.yaml [--steps N] [--json]`,
     which `coupler --help` prints."""
