@@ -7,6 +7,7 @@
 #include "../common/h5_cause.h"
 
 #include <hdf5.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,6 +19,10 @@
  * HDF5 write and a flush, and a killed run loses at most the rows of the
  * last second. */
 enum { OUTPUT_BUFFER_ROWS = 256 };
+/* HDF5's own bytes for the file (superblock, groups, root attributes less
+ * the scene text) and for each dataset (object header, chunk index, unit),
+ * from files written (output_file_bytes) */
+enum { OUTPUT_FILE_BYTES = 4096, OUTPUT_DATASET_BYTES = 3328 };
 static const double OUTPUT_FLUSH_SECONDS = 1.0;
 
 typedef struct {
@@ -123,6 +128,10 @@ static status_t attr_doubles(output_t *o, hid_t obj, const char *name, const dou
     return st;
 }
 
+/* Rows of a chunk of a series whose rows hold per_row values: 4096 values
+ * at least, or one row. */
+static hsize_t chunk_rows(hsize_t per_row) { return per_row >= 4096 ? 1 : 4096 / per_row; }
+
 /* An extendible dataset of rows of a x b values (a = 0: scalars; b = 0: vectors). */
 static status_t series_create(output_t *o, series_t *s, const char *name, hid_t type, hsize_t a, hsize_t b,
                               const char *unit)
@@ -140,7 +149,7 @@ static status_t series_create(output_t *o, series_t *s, const char *name, hid_t 
         return log_msg(&o->log, STATUS_FATAL, "output", "out of memory for the row buffer of %s (%zu bytes)", name,
                        OUTPUT_BUFFER_ROWS * s->row_bytes);
     }
-    hsize_t maxd[3] = {H5S_UNLIMITED, a, b}, chunk[3] = {per_row >= 4096 ? 1 : 4096 / per_row, a, b};
+    hsize_t maxd[3] = {H5S_UNLIMITED, a, b}, chunk[3] = {chunk_rows(per_row), a, b};
     hid_t space = H5Screate_simple(s->rank, s->dims, maxd);
     hid_t plist = H5Pcreate(H5P_DATASET_CREATE);
     hid_t lcpl = H5Pcreate(H5P_LINK_CREATE);
@@ -287,6 +296,24 @@ static hsize_t series_dim(const output_t *o, int d)
     return d == D_3 ? 3 : d == D_NS ? (hsize_t)o->ns : d == D_NC ? (hsize_t)o->nc : 0;
 }
 
+double output_file_bytes(const output_layout_t *layout, double rows, size_t scene_text)
+{
+    const output_t o = {.ns = layout->ns, .nc = layout->nc, .bodies = layout->bodies};
+    double bytes = OUTPUT_FILE_BYTES + (double)scene_text + 2.0 * sizeof(int) * layout->nc;
+    for (int k = 0; k < NSERIES; k++) {
+        if (!series_present(&o, k)) {
+            continue;
+        }
+        const hsize_t a = series_dim(&o, SERIES[k].a), b = series_dim(&o, SERIES[k].b);
+        const double per_row = (double)(a > 0 ? a : 1) * (double)(b > 0 ? b : 1);
+        const double crows = (double)chunk_rows((hsize_t)per_row);
+        /* HDF5 allocates whole chunks: a short run's file is its chunks */
+        const double chunks = fmax(1.0, ceil(rows / crows));
+        bytes += OUTPUT_DATASET_BYTES + chunks * crows * per_row * (SERIES[k].is_int ? sizeof(int) : sizeof(double));
+    }
+    return bytes;
+}
+
 /* The output_t without a file yet. */
 static status_t output_new(const char *path, const output_layout_t *layout, const log_t *log, output_t **out)
 {
@@ -333,6 +360,7 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
         output_close(o);
         return STATUS_ERROR;
     }
+    o->last_write = now_seconds(); /* the first rows go in within a second too */
     const double grid[3] = {u->n[0], u->n[1], u->n[2]}, ranks = layout->ranks;
     st = attr_string(o, o->file, "scene", scene->text ? scene->text : "");
     st = status_worst(st, attr_string(o, o->file, "scene_file", scene->path ? scene->path : ""));

@@ -56,6 +56,9 @@ typedef struct {
 status_t output_open(const char *path, const scene_t *scene, const units_t *units, const output_layout_t *layout,
                      const log_t *log, output_t **out);
 status_t output_row(output_t *o, const output_row_t *row);
+/* Bytes of an output file of the layout with `rows` rows and a scene text
+ * of scene_text bytes, HDF5's whole chunks included (resources_need). */
+double output_file_bytes(const output_layout_t *layout, double rows, size_t scene_text);
 long output_rows(const output_t *o);
 /* Copies every time series as written so far into the HDF5 file at path
  * (closed; opened and closed here), under prefix ("/output"): a checkpoint

@@ -5,6 +5,7 @@
 #include "resources.h"
 
 #include "../common/h5fields.h"
+#include "output.h"
 
 #include "../fluid/grid.h"
 #include "../fluid/lattice.h"
@@ -37,13 +38,17 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
     const double grid = need->grid_cells * need->cell_bytes;
     const double slab = (double)u.n[0] * u.n[1] * h5fields_slab_planes(u.n[0], u.n[1], u.n[2]);
     need->memory = grid + (s->run.fields ? slab * FIELD_BYTES_PER_CELL : 0.0); /* buffers only with fields */
-    /* a row: time, fluid mass, momentum, energy; per sphere 5 vectors and a
-     * body id; per connection 2 vectors and a flag; bodies: count, 2 vectors */
-    const double ns = scene_total_spheres(s), nc = s->nconnections;
-    const double row = 6 * 8.0 + ns * (15 * 8.0 + 4) + nc * (6 * 8.0 + 4) + (4 + 6 * 8.0);
-    /* at most one row and one snapshot per fluid step (shorter intervals write every step) */
+    /* the time series as the run lays them out (run.c): connections and
+     * /bodies only with a rigid component; at most one row and one snapshot
+     * per fluid step (shorter intervals write every step) */
+    int nfree = 0;
+    for (int b = 0; b < s->nbodies; b++) {
+        nfree += s->bodies[b].motion == MOTION_FREE;
+    }
+    const output_layout_t layout = {.ns = scene_total_spheres(s), .nc = nfree > 0 ? s->nconnections : 0,
+                                    .bodies = nfree > 0};
     const double rows = floor(t_end / fmax(s->run.output_interval, s->fluid.dt)) + 2.0;
-    need->output = rows * row;
+    need->output = output_file_bytes(&layout, rows, s->text != NULL ? strlen(s->text) : 0);
     if (s->run.fields) {
         const double snaps = floor(t_end / fmax(s->run.field_interval, s->fluid.dt)) + 2.0;
         need->fields = snaps * interior * FIELD_BYTES_PER_CELL;

@@ -65,8 +65,9 @@ def fill(folder, leave=0):
 
 def run_short_of_space(scene_text, folder, tmp_path, spare):
     """`coupler run` of a scene into folder, left with what `coupler check`
-    says the run needs plus `spare` bytes (it counts the datasets only: the
-    files' own metadata fill the rest): it fails with exit 1 and the cause.
+    says the run needs plus `spare` bytes (it counts the field snapshots'
+    values only: the field file's own metadata and its .xmf index fill the
+    rest): it fails with exit 1 and the cause.
     Returns the CompletedProcess and the output's path."""
     scene = tmp_path / "s.yaml"
     scene.write_text(scene_text)
@@ -118,8 +119,8 @@ def test_coupler_run_filling_the_disk_stops_cleanly(coupler, small_disk, tmp_pat
     """A run whose snapshots fill the file system: exit 1 (not 139), the cause
     named, the field file and the output readable up to the failure. The
     disk is left with what `coupler check` says the run needs, which counts
-    the datasets only: the files' own metadata and the .xmf index fill it
-    before the end."""
+    the snapshots' values only: the field file's own metadata and the .xmf
+    index fill it before the end."""
     p, out = run_short_of_space(SCENE.format(motion="\n    motion: fixed", end="1.0e-3"), small_disk, tmp_path, 16384)
     assert "the field file was closed and keeps the snapshots before it" in p.stderr
     names, listed = complete_snapshots(small_disk / "o_fields.h5", small_disk / "o_fields.xmf")
@@ -196,6 +197,14 @@ run: {{end_time: {end}, output_interval: 1.0e-5}}
 """
 
 
+SLOW_ROWS = """\
+domain:
+  size: [4.8e-4, 4.8e-4, 4.8e-4]
+fluid: {density: 1000.0, viscosity: 1.0e-6, dx: 1.0e-5, tau: 0.8}
+run: {end_time: 0.05, output_interval: 1.0e-4}
+"""
+
+
 def kept_rows(stderr, out):
     """The rows the run says its output keeps, checked against the file read
     back: every series as long as the time, the times those of the rows."""
@@ -223,12 +232,15 @@ def test_output_rows_on_a_disk_that_fills_during_the_run(small_disk, tmp_path):
 
 
 def test_output_on_a_disk_full_before_its_first_rows(coupler, small_disk, tmp_path):
-    """The disk holds what `coupler check` counts for the rows' values but
-    not the first flush's chunks: the run ends with exit 1 (HDF5 1.10
-    segfaulted at exit, 139, on the output file whose close had failed) and
-    says that the file is not readable instead of promising rows."""
-    p, out = run_short_of_space(ROWS.format(end="0.01"), small_disk, tmp_path, 4096)
-    assert f"stopped; {out} is not readable (its first rows could not be written)" in p.stderr, p.stderr
+    """Another program fills the disk after the output file is created and before its
+    first rows are written (a second after, or at 256 rows: 48^3 cells, a row every 10
+    steps): the run ends with exit 1 (HDF5 1.10 segfaulted at exit, 139, on the output file
+    whose close had failed) and says that the file is not readable instead of promising
+    rows. (`coupler check` counts the whole file with its chunks, so a disk that is short
+    from the start refuses the run before anything is written.)"""
+    out = small_disk / "o.h5"
+    err = run_while_filling(SLOW_ROWS, small_disk, tmp_path, [], out.exists, 0)
+    assert f"stopped; {out} is not readable (its first rows could not be written)" in err, err
 
 
 def test_checkpoint_on_a_disk_that_fills_during_the_run(small_disk, tmp_path):
