@@ -458,17 +458,30 @@ def run(args):
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+class Once(argparse.Action):
+    """An option given twice (-o a.h5 -o b.h5) is a usage error, as in the C coupler,
+    not the last one taken."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if getattr(namespace, "_given_" + self.dest, False):
+            parser.error(f"option '{option_string}' given twice; give it once")
+        setattr(namespace, "_given_" + self.dest, True)
+        setattr(namespace, self.dest, True if self.nargs == 0 else values)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("scene")
-    p.add_argument("-o", "--output", required=True)
+    p.add_argument("-o", "--output", required=True, action=Once)
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    p.add_argument("--steps", type=int, default=0, help="communication steps instead of run.end_time")
-    p.add_argument("--exchange-every", type=int, default=1, metavar="K", help="LBM steps per communication step")
-    p.add_argument("--fluid-fmu")
-    p.add_argument("--rigid-fmu")
-    p.add_argument("--log-fmi-calls", metavar="FILE", help="log every FMI call with its arguments and status")
-    p.add_argument("--quiet", action="store_true", help="no progress line")
+    p.add_argument("--steps", type=int, default=0, action=Once, help="communication steps instead of run.end_time")
+    p.add_argument("--exchange-every", type=int, default=1, metavar="K", action=Once,
+                   help="LBM steps per communication step")
+    p.add_argument("--fluid-fmu", action=Once)
+    p.add_argument("--rigid-fmu", action=Once)
+    p.add_argument("--log-fmi-calls", metavar="FILE", action=Once,
+                   help="log every FMI call with its arguments and status")
+    p.add_argument("--quiet", action=Once, nargs=0, default=False, help="no progress line")
     args = p.parse_args(argv)
     if args.exchange_every < 1:
         p.error("--exchange-every takes a whole number >= 1")

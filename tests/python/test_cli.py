@@ -4,13 +4,14 @@ Bad input must end with a message that names the file, the key and the
 allowed range, a non-zero exit, and nothing written (DESIGN section 3, 4)."""
 import math
 import re
+import subprocess
 import xml.etree.ElementTree as ET
 
 import h5py
 import numpy as np
 import pytest
 
-from conftest import MODELS, run
+from conftest import MODELS, PY, ROOT, run
 
 
 def test_check_prints_lattice_parameters(coupler):
@@ -287,6 +288,16 @@ def test_an_option_given_twice_is_refused(coupler, tmp_path, args):
     assert list(tmp_path.iterdir()) == []
     p = run("bench", "--coupled", "x.yaml", "--coupled", "y.yaml")
     assert p.returncode == 2 and "option '--coupled' given twice" in p.stderr
+
+
+def test_the_fmpy_master_refuses_an_option_given_twice(tmp_path):
+    """coupler/fmpy_master.py takes the coupler's options and refuses a repeated one alike."""
+    for opts in (["-o", "a.h5", "--output", "b.h5"], ["-o", "a.h5", "--steps", "1", "--steps", "2"]):
+        p = subprocess.run([str(PY), str(ROOT / "coupler" / "fmpy_master.py"), str(MODELS / "sinking_sphere.yaml"),
+                            *opts], capture_output=True, text=True, cwd=tmp_path, timeout=120)
+        assert p.returncode == 2, p.stderr
+        assert f"option '{opts[-2]}' given twice; give it once" in p.stderr, p.stderr
+        assert list(tmp_path.iterdir()) == []
 
 
 def test_a_list_index_with_a_leading_zero_is_refused(coupler):
