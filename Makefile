@@ -44,7 +44,7 @@ COUPLER_SRC := coupler/main.c coupler/mpi_env.c coupler/check_ranks.c coupler/be
 TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_boundary.c tests/fluid/test_kernel.c tests/fluid/test_layouts.c tests/fluid/test_schedules.c \
                tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/drag_report.c tests/fluid/test_spheres.c tests/fluid/test_sphere_motion.c \
                tests/fluid/approach_harness.c tests/fluid/test_wall_approach.c tests/common/scene_harness.c tests/common/test_scene.c \
-               tests/common/test_scene_refused.c tests/common/test_scene_bad.c tests/common/test_exact_sum.c tests/common/test_big_alloc.c tests/common/test_fmi_vars.c \
+               tests/common/test_scene_refused.c tests/common/test_scene_bad.c tests/common/test_exact_sum.c tests/common/test_h5fields.c tests/common/test_big_alloc.c tests/common/test_fmi_vars.c \
                tests/rigid/test_rigid_main.c tests/rigid/test_body.c tests/rigid/test_dynamics.c \
                tests/rigid/test_connection.c tests/rigid/test_contact.c tests/rigid/test_topology.c \
                tests/rigid/test_input.c tests/rigid/test_lubrication.c tests/rigid/test_walls.c

@@ -192,7 +192,7 @@ static status_t close_file(h5fields_t *w)
     return st;
 }
 
-status_t h5fields_close(h5fields_t *w)
+static status_t fields_close(h5fields_t *w)
 {
     if (w == NULL) {
         return STATUS_OK;
@@ -218,8 +218,8 @@ status_t h5fields_close(h5fields_t *w)
     return st;
 }
 
-status_t h5fields_open(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
-                       h5fields_t **out)
+static status_t fields_open(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
+                           h5fields_t **out)
 {
     return open_file(path, n, dx, part, 0, log, out);
 }
@@ -365,7 +365,6 @@ static status_t open_file(const char *path, const int n[3], double dx, const h5f
     if (log != NULL) {
         w->log = *log;
     }
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL); /* errors are reported by us */
     hid_t fapl = H5P_DEFAULT;
     st = agree_on(comm, log, path, set_up(w, path, n, dx, part, &fapl), "setting up the field writer");
     if (st == STATUS_OK && comm != MPI_COMM_NULL) {
@@ -399,7 +398,7 @@ static status_t open_file(const char *path, const int n[3], double dx, const h5f
     }
     close_plist(fapl);
     if (st != STATUS_OK) {
-        h5fields_close(w);
+        fields_close(w);
         return st;
     }
     *out = w;
@@ -630,7 +629,7 @@ int h5fields_slab_planes(int nx, int ny, int nz)
     return planes > 0 ? planes : 1;
 }
 
-status_t h5fields_slabs(h5fields_t *w, int planes, int *calls)
+static status_t fields_slabs(h5fields_t *w, int planes, int *calls)
 {
     planes = planes > 0 ? planes : 1;
     int mine = (w->nb[2] + planes - 1) / planes;
@@ -644,7 +643,7 @@ status_t h5fields_slabs(h5fields_t *w, int planes, int *calls)
     return STATUS_OK;
 }
 
-status_t h5fields_begin(h5fields_t *w, long step, double time)
+static status_t fields_begin(h5fields_t *w, long step, double time)
 {
     if (w->snap >= 0) {
         drop_failed_snapshot(w, 1); /* one begun and never ended */
@@ -679,7 +678,7 @@ status_t h5fields_begin(h5fields_t *w, long step, double time)
     return st;
 }
 
-status_t h5fields_planes(h5fields_t *w, int z0, int nz, const double *density, const double *velocity,
+static status_t fields_planes(h5fields_t *w, int z0, int nz, const double *density, const double *velocity,
                          const unsigned char *flags)
 {
     if (w->snap < 0) {
@@ -703,7 +702,7 @@ status_t h5fields_planes(h5fields_t *w, int z0, int nz, const double *density, c
     return st;
 }
 
-status_t h5fields_end(h5fields_t *w)
+static status_t fields_end(h5fields_t *w)
 {
     if (w->snap < 0) {
         return log_msg(&w->log, STATUS_ERROR, "fields", "%s: no snapshot to finish (h5fields_begin)", w->path);
@@ -728,15 +727,15 @@ status_t h5fields_end(h5fields_t *w)
     return st != STATUS_OK ? st : write_xmf_once(w);
 }
 
-status_t h5fields_write(h5fields_t *w, long step, double time, const double *density, const double *velocity,
+static status_t fields_write(h5fields_t *w, long step, double time, const double *density, const double *velocity,
                         const unsigned char *flags)
 {
-    status_t st = h5fields_begin(w, step, time);
+    status_t st = fields_begin(w, step, time);
     if (st != STATUS_OK) {
         return st;
     }
-    h5fields_planes(w, 0, w->nb[2], density, velocity, flags); /* its status: h5fields_end's */
-    return h5fields_end(w);
+    fields_planes(w, 0, w->nb[2], density, velocity, flags); /* its status: h5fields_end's */
+    return fields_end(w);
 }
 
 /* Every snapshot group already in the file, into the sorted list. */
@@ -761,7 +760,7 @@ static herr_t found_snapshot(hid_t group, const char *name, const H5L_info_t *in
     return remember(w, step, time) == STATUS_OK ? 0 : -1;
 }
 
-status_t h5fields_resume(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
+static status_t fields_resume(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
                          h5fields_t **out)
 {
     h5fields_t *w;
@@ -780,14 +779,14 @@ status_t h5fields_resume(const char *path, const int n[3], double dx, const h5fi
         }
     }
     if ((st = agree(w, st, "reading the snapshots already written")) != STATUS_OK) {
-        h5fields_close(w);
+        fields_close(w);
         return st;
     }
     *out = w;
     return STATUS_OK;
 }
 
-status_t h5fields_drop_after(h5fields_t *w, long step)
+static status_t fields_drop_after(h5fields_t *w, long step)
 {
     if (w->nsnaps == 0 || w->steps[w->nsnaps - 1] <= step) {
         return STATUS_OK;
@@ -810,4 +809,86 @@ status_t h5fields_drop_after(h5fields_t *w, long step)
         return st;
     }
     return write_xmf_once(w);
+}
+
+/* The public calls: HDF5 prints no error of its own while they run (this
+ * file reports each failure with its cause, h5_cause), and the host
+ * process's printing is put back after each, as it was: an FMU must not
+ * change a setting of a library its host may use too (it was turned off
+ * for the whole process at the first open). */
+typedef struct {
+    H5E_auto2_t fn;
+    void *data;
+} quiet_t;
+
+static quiet_t quiet_begin(void)
+{
+    quiet_t q = {NULL, NULL};
+    H5Eget_auto2(H5E_DEFAULT, &q.fn, &q.data);
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    return q;
+}
+
+static status_t quiet_end(quiet_t q, status_t st)
+{
+    H5Eset_auto2(H5E_DEFAULT, q.fn, q.data);
+    return st;
+}
+
+status_t h5fields_open(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
+                       h5fields_t **out)
+{
+    const quiet_t q = quiet_begin();
+    return quiet_end(q, fields_open(path, n, dx, part, log, out));
+}
+
+status_t h5fields_resume(const char *path, const int n[3], double dx, const h5fields_part_t *part, const log_t *log,
+                         h5fields_t **out)
+{
+    const quiet_t q = quiet_begin();
+    return quiet_end(q, fields_resume(path, n, dx, part, log, out));
+}
+
+status_t h5fields_drop_after(h5fields_t *w, long step)
+{
+    const quiet_t q = quiet_begin();
+    return quiet_end(q, fields_drop_after(w, step));
+}
+
+status_t h5fields_write(h5fields_t *w, long step, double time, const double *density, const double *velocity,
+                        const unsigned char *flags)
+{
+    const quiet_t q = quiet_begin();
+    return quiet_end(q, fields_write(w, step, time, density, velocity, flags));
+}
+
+status_t h5fields_begin(h5fields_t *w, long step, double time)
+{
+    const quiet_t q = quiet_begin();
+    return quiet_end(q, fields_begin(w, step, time));
+}
+
+status_t h5fields_planes(h5fields_t *w, int z0, int nz, const double *density, const double *velocity,
+                         const unsigned char *flags)
+{
+    const quiet_t q = quiet_begin();
+    return quiet_end(q, fields_planes(w, z0, nz, density, velocity, flags));
+}
+
+status_t h5fields_end(h5fields_t *w)
+{
+    const quiet_t q = quiet_begin();
+    return quiet_end(q, fields_end(w));
+}
+
+status_t h5fields_slabs(h5fields_t *w, int planes, int *calls)
+{
+    const quiet_t q = quiet_begin();
+    return quiet_end(q, fields_slabs(w, planes, calls));
+}
+
+status_t h5fields_close(h5fields_t *w)
+{
+    const quiet_t q = quiet_begin();
+    return quiet_end(q, fields_close(w));
 }

@@ -30,6 +30,7 @@ int main(int argc, char **argv)
     scene_refused_register_tests();
     scene_bad_register_tests();
     exact_sum_register_tests();
+    h5fields_register_tests();
     big_alloc_register_tests();
     fmi_vars_register_tests();
     rigid_register_tests();

@@ -12,6 +12,8 @@ void scene_bad_register_tests(void);
 
 /* Adds the "exact_sum" suite (test_exact_sum.c: common/exact_sum.h). */
 void exact_sum_register_tests(void);
+/* Adds the "h5fields" suite (test_h5fields.c: common/h5fields.c in a host that uses HDF5). */
+void h5fields_register_tests(void);
 /* Adds the "big_alloc" suite (test_big_alloc.c: common/big_alloc.h). */
 void big_alloc_register_tests(void);
 /* Adds the "fmi_vars" suite (test_fmi_vars.c: the FMUs' variable lists). */
