@@ -348,6 +348,16 @@ fmi2Status fmi2Terminate(fmi2Component c)
     BEGIN("fmi2Terminate", M_TERMINATE);
     fmi_trace(in, "fmi2Terminate", "%s", "");
     in->state = S_TERMINATED;
+    if (in->comp != NULL && in->model->terminate != NULL) {
+        const status_t st = in->model->terminate(in->comp, &in->log);
+        if (st >= STATUS_ERROR) {
+            in->state = st == STATUS_FATAL ? S_FATAL : S_ERROR;
+        }
+        if (st >= STATUS_WARNING) {
+            return fmi_report(in, st, "fmi2Terminate", "closing the %s component's files (see the message above)",
+                              in->model->identifier);
+        }
+    }
     return fmi2OK;
 }
 

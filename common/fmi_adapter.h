@@ -88,6 +88,10 @@ typedef struct {
     /* Optional: a String parameter's value, called right after create (NULL:
      * the model has no String variables). */
     status_t (*set_string)(void *comp, const fmi_var_t *var, const char *value, const log_t *log);
+    /* Optional: at fmi2Terminate, closes the files the component writes
+     * (the fluid's field file), so that the master can read them before
+     * fmi2FreeInstance; a state restored after it writes none. */
+    status_t (*terminate)(void *comp, const log_t *log);
     size_t (*state_size)(void *comp);
     status_t (*state_save)(void *comp, void *buf, size_t size);
     status_t (*state_restore)(void *comp, const void *buf, size_t size);

@@ -404,6 +404,16 @@ static status_t maybe_snapshot(fluid_fmi_t *m)
     return st;
 }
 
+static status_t fluid_fmi_terminate(void *comp, const log_t *log)
+{
+    (void)log; /* the writer names its failures through its own log */
+    fluid_fmi_t *m = comp;
+    const status_t st = h5fields_close(m->fields);
+    m->fields = NULL;
+    m->fields_failed = -1;
+    return st;
+}
+
 static status_t fluid_fmi_set_string(void *comp, const fmi_var_t *var, const char *value, const log_t *log)
 {
     fluid_fmi_t *m = comp;
@@ -672,6 +682,7 @@ const fmi_model_t fluid_fmi_model = {
     .variables = fluid_variables,
     .create = fluid_fmi_create,
     .free = fluid_fmi_free,
+    .terminate = fluid_fmi_terminate,
     .check_step = fluid_fmi_check_step,
     .step = fluid_fmi_step,
     .outputs = fluid_fmi_outputs,
