@@ -260,15 +260,50 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                         break;
                     }
                     case FACE_PRESSURE_OUTLET: {
+                        /* the ghost x_g = x_f - c_q lies across the outlet
+                         * from x_s = x_f - c_t (c_t: c_q's tangential part),
+                         * whose f~_q the link copies (walls.h): x_s itself, or
+                         * across a tangential face its image in the block
+                         * (periodic: wrapped; free-slip: mirrored, with the
+                         * mirrored direction) or another rank's cell (read
+                         * where the exchange leaves it, the in-slot of q of
+                         * x_f + c_n, after the exchange) */
                         const int a = best / 2;
-                        int x2[3] = {x, y, z};
-                        x2[a] += best % 2 == 0 ? 1 : -1;
-                        if (x2[a] < 1 || x2[a] > g->n[a]) {
-                            x2[a] = xf[a];
+                        int xs[3] = {x, y, z}, sq2 = q, remote = 0;
+                        for (int b = 0; b < 3; b++) {
+                            if (b == a || lb_c[q][b] == 0 || g->n[a] < 2) {
+                                continue; /* a domain one cell long: x_f's own (x_f + c_n is no cell) */
+                            }
+                            xs[b] -= lb_c[q][b];
+                            if (xs[b] >= 1 && xs[b] <= g->n[b]) {
+                                continue;
+                            }
+                            const int side = xs[b] < 1 ? 0 : 1;
+                            if (decomp_exchanged(d, b, side)) {
+                                remote = 1;
+                            } else if (s->domain.faces[2 * b + side].type == FACE_PERIODIC) {
+                                xs[b] += side == 0 ? g->n[b] : -g->n[b];
+                            } else {
+                                /* free-slip (a wall would have won the link): x_f, the
+                                 * tangential component reflected */
+                                xs[b] = xf[b];
+                                int cm[3] = {lb_c[q][0], lb_c[q][1], lb_c[q][2]};
+                                cm[b] = -cm[b];
+                                for (int r = 1; r < LB_Q; r++) {
+                                    if (lb_c[r][0] == cm[0] && lb_c[r][1] == cm[1] && lb_c[r][2] == cm[2]) {
+                                        sq2 = r;
+                                    }
+                                }
+                            }
                         }
                         l.kind = LINK_ANTI;
-                        l.cell2 = grid_index(g, x2[0], x2[1], x2[2]);
                         l.coef = 1.0 + face->pressure / units_pressure(u) / LB_CS2;
+                        l.pinch = (int16_t)remote;
+                        l.axis = (int16_t)sq2;
+                        int xn[3] = {x, y, z};
+                        xn[a] += best % 2 == 0 ? 1 : -1;
+                        l.cell2 = grid_index(g, xs[0], xs[1], xs[2]);
+                        l.cell3 = remote ? grid_index(g, xn[0], xn[1], xn[2]) : l.cell2;
                         break;
                     }
                     case FACE_PERIODIC:
@@ -540,12 +575,15 @@ static inline __attribute__((always_inline)) void prepare_links(const walls_t *w
              * overwrites before the late links of step_overlapped run */
             w->pre[i].v[2] = pinched(w, l) ? pops_post(p, l->q, l->cell) : 0.0;
         } else if (l->kind == LINK_ANTI) {
-            double r1, r2, u1[3], u2[3];
+            /* the non-equilibrium extrapolation (walls.h): x_s's f~_q (where
+             * a sphere covers x_s, or until the exchange brings it, x_f's) and
+             * the ghost's equilibrium shifted to the density 2 rho_w - rho_f */
+            double r1, u1[3];
             moments(p, l->cell, &r1, u1);
-            moments(p, l->cell2, &r2, u2);
-            for (int a = 0; a < 3; a++) {
-                w->pre[i].v[a] = 1.5 * u1[a] - 0.5 * u2[a];
-            }
+            const int solid = w->flags != NULL && (cellflags_get(w->flags, l->cell2) & FLAG_SOLID) != 0;
+            w->pre[i].v[0] = l->pinch || solid ? pops_post(p, l->q, l->cell) : pops_post(p, l->axis, l->cell2);
+            w->pre[i].v[1] =
+                lb_feq(l->q, 2.0 * l->coef - r1, u1[0], u1[1], u1[2]) - lb_feq(l->q, r1, u1[0], u1[1], u1[2]);
         }
     }
 }
@@ -625,10 +663,11 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
             break;
         }
         case LINK_ANTI: {
-            const double *uw = w->pre[i].v;
-            const double cu = lb_c[l->q][0] * uw[0] + lb_c[l->q][1] * uw[1] + lb_c[l->q][2] * uw[2];
-            const double uu = uw[0] * uw[0] + uw[1] * uw[1] + uw[2] * uw[2];
-            pops_write(p, l->q, dst, -bounced + 2.0 * lb_w[l->q] * l->coef * (1.0 + 4.5 * cu * cu - 1.5 * uu));
+            double src = w->pre[i].v[0];
+            if (l->pinch && (flags == NULL || (cellflags_get(flags, l->cell2) & FLAG_SOLID) == 0)) {
+                src = pops_read(p, l->q, pops_in_slot(p, l->q, l->cell3)); /* x_s on another rank */
+            }
+            pops_write(p, l->q, dst, src + w->pre[i].v[1]);
             break;
         }
         }

@@ -21,10 +21,24 @@
  *               parabolic flow, the second difference being exact there
  *               (not on a link through an edge of two walls of one kind,
  *               which has no one normal: plain bounce-back);
- *   anti        anti-bounce-back pressure outlet (Ginzburg, Verhaeghe &
- *               d'Humieres 2008; Izquierdo & Fueyo 2008):
- *               f_q = -f~_qbar + 2 w_q rho_w [1 + 4.5 (c.u_w)^2 - 1.5 u_w^2],
- *               u_w extrapolated from the two cells next to the face.
+ *   anti        pressure outlet: the non-equilibrium extrapolation of
+ *               Guo, Zheng & Shi, Chinese Phys. 11 (2002) 366, from the
+ *               ghost's own upstream cell: the ghost x_g = x_f - c_q lies
+ *               across the face from x_s = x_f - c_t (c_t the part of c_q
+ *               along the face), and
+ *                 f_q(x_f) = f~_q(x_s) + f_q^eq(2 rho_w - rho_f, u_f)
+ *                                      - f_q^eq(rho_f, u_f),
+ *               a zero normal gradient of the post-collision populations
+ *               with the density extrapolated through the face to rho_w.
+ *               A developed flow continues unchanged to the face. (Anti-
+ *               bounce-back, Ginzburg, Verhaeghe & d'Humieres 2008, -f~_qbar
+ *               + 2 w_q rho_w [1 + 4.5 (c.u_w)^2 - 1.5 u_w^2], sent back the
+ *               opposite diagonal, whose shear part has the other sign: a
+ *               transverse velocity of 0.11 U in a channel's last cells.)
+ *               x_s across a tangential face: periodic, its image; free-
+ *               slip, x_f with the tangential component mirrored; another
+ *               rank's cell, the value the exchange leaves in the in-slot
+ *               of q of x_f + c_n (read after it); inside a sphere, x_f's.
  * Where a link crosses two non-periodic faces (an edge), the stronger
  * condition wins: no-slip, moving wall, inlet, outlet, free-slip; any of
  * them wins over a periodic face. Periodic faces need no list: their ghost
@@ -47,15 +61,17 @@ typedef enum { LINK_COPY, LINK_BOUNCE, LINK_ANTI } link_kind_t;
  * cell receives from its ghost neighbour cell - c_q. */
 typedef struct {
     size_t cell;  /* the fluid cell the link ends in */
-    size_t cell2; /* anti: the next cell inwards, for the extrapolation of u_w; bounce: the same for
+    size_t cell2; /* anti: x_s (walls.h above; on another rank its ghost); bounce: the next cell inwards, for
                    * the slip correction (cell + 2 (cell2 - cell) the one after), cell if none */
     double coef;  /* bounce: 6 w_q c_q.u_w (times rho); anti: rho_w */
     int16_t q;
     int16_t kind;
-    int16_t axis;  /* bounce: the axis normal to the face (slip correction) */
-    int16_t pinch; /* bounce of a no-slip or moving wall: a pinched pair is closed (walls.c fill_links) */
+    int16_t axis;  /* bounce: the axis normal to the face (slip correction); anti: the direction read at x_s */
+    int16_t pinch; /* bounce of a no-slip or moving wall: a pinched pair is closed (walls.c fill_links);
+                    * anti: x_s is another rank's */
     size_t cell3;  /* bounce with pinch: the cell x_f + c_q, across a periodic face its image in the block
-                    * (whose flags the sphere stage sets; the ghost's it leaves): solid, the pair is pinched */
+                    * (whose flags the sphere stage sets; the ghost's it leaves): solid, the pair is pinched;
+                    * anti with x_s on another rank: x_f + c_n, whose in-slot of q holds f~_q(x_s) */
 } ghost_link_t;
 
 /* Copy link: in_slot(q, cell) <- post_slot(sq, src); 12 bytes, for the many
@@ -68,7 +84,8 @@ typedef struct {
 /* What a link reads of the cells' moments, taken before the step changes
  * them (walls_links_prepare): bounce, rho of its cell and the slip
  * correction's term 6 w_q rho c_q.u_k, and a pinched pair's f~_q(x_f); anti,
- * u_w. */
+ * f~_q(x_s) (x_f's where x_s is on another rank or a sphere's) and the
+ * equilibrium's shift. */
 typedef struct {
     double v[3];
 } link_moments_t;

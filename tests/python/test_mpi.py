@@ -111,6 +111,17 @@ def test_every_face_type_same_on_1_2_4_ranks(tmp_path, streaming):
     assert_identical(run_ranks(tmp_path, box(ALL_FACES, streaming), "faces_" + streaming))
 
 
+@pytest.mark.parametrize("ranks", ["[2, 1, 1]", "[4, 1, 1]"])
+def test_every_face_type_cut_along_the_channel(tmp_path, ranks):
+    """The same faces cut along x, the inlet-outlet axis: with 4 ranks the
+    outlet's block is 4 cells long; its links read their own rank's cells
+    (x_f and the cell across the face from the ghost, walls.h), the ones cut
+    along z and y (test above) the other rank's value in the exchanged
+    ghost layer."""
+    n = eval(ranks)[0]
+    assert_identical(run_ranks(tmp_path, box(ALL_FACES), "faces_x", ranks=(1, n), sets=[f"run.ranks={ranks}"]))
+
+
 @pytest.mark.parametrize("ranks", ["[2, 1, 1]", "[4, 1, 1]", "[2, 2, 1]", "[1, 2, 2]"])
 def test_periodic_face_across_ranks(tmp_path, ranks):
     """x periodic and cut: the periodic face is an exchange between the first
