@@ -9,7 +9,10 @@
  *               fill_links);
  *   bounce      half-way bounce-back, with the moving-wall term
  *               6 w_q rho c_q.u_w (Ladd, J. Fluid Mech. 271 (1994) 285)
- *               for moving walls and velocity inlets; with TRT at a magic
+ *               for moving walls and velocity inlets (a link through the
+ *               edge of an inlet and a wall is the wall's with the inlet's
+ *               velocity: every cell next to an inlet receives rho U);
+ *               with TRT at a magic
  *               parameter Lambda other than 3/16, no-slip and moving walls
  *               add the velocity kappa P_t (u(x_f) - 2 u(x_f + n) + u(x_f + 2n))
  *               to the wall's, kappa = (16 Lambda - 3)/24, n the inward
