@@ -44,7 +44,9 @@
  *               of q of x_f + c_n (read after it); inside a sphere, x_f's.
  * Where a link crosses two non-periodic faces (an edge), the stronger
  * condition wins: no-slip, moving wall, inlet, outlet, free-slip; any of
- * them wins over a periodic face. Periodic faces need no list: their ghost
+ * them wins over a periodic face. Its velocity: across an inlet, the
+ * inlet's; across two (three) moving walls, the mean of theirs, so that it
+ * does not depend on the order of the axes. Periodic faces need no list: their ghost
  * layers are copied (walls.c periodic_axis) before the links are filled. */
 #ifndef FLUID_WALLS_H
 #define FLUID_WALLS_H
