@@ -176,7 +176,9 @@ int rigid_nfree_bodies(const rigid_t *r); /* bodies that move (not fixed) */
 int rigid_nspheres(const rigid_t *r);
 
 /* Connections: the first cfg->nconnections keep their cfg index; connections
- * created by sticking are appended. force is the force on the section that
+ * created by sticking follow them (a pair that sticks again takes back its
+ * broken connection, a new pair the slot of a broken one whose spheres have
+ * parted, else one is appended). force is the force on the section that
  * contains sphere a exerted by the rest (Eq. 8), torque the torque on that
  * section about the connection point (Eq. 9). */
 int rigid_nconnections(const rigid_t *r);

@@ -5,7 +5,8 @@
  * of the body it currently belongs to. Bodies are an array rebuilt on
  * break-up and sticking (topology.c). A body's frame is its principal-axes
  * frame with origin at its centre of mass, so its inertia is diag(inertia).
- * Connections are an array that grows when bodies stick.
+ * Connections are an array: the scene's, then those of sticking, which
+ * grows only when no broken sticking connection can be reused (topology.c).
  *
  * Invariants: for every body b, mass = sum of its spheres' share masses and
  * the shares' first moments sum to zero in the body frame; q is a unit

@@ -20,10 +20,15 @@
  * contact point fuse their bodies into one (perfectly inelastic):
  *   v = (M_A v_A + M_B v_B)/M,
  *   L = sum_k [L_k + M_k (com_k - com) x (v_k - v)],
- * which conserves momentum and angular momentum exactly; a new connection
+ * which conserves momentum and angular momentum exactly; a connection
  * joins the two spheres (limits cfg.fuse_max_*), so the fused body can break
- * there again. Mass properties are the sum of the spheres' fixed shares (the
- * contact overlap is not re-sintered), so mass is conserved exactly. A body
+ * there again. It is the pair's own broken connection from an earlier
+ * sticking if there is one, else a broken sticking connection whose spheres
+ * have parted, else a new one (stick_slot): a pair that sticks and breaks
+ * again and again keeps one connection, and the connections stay bounded by
+ * the scene's plus the pairs that touch at once. Mass properties are the sum
+ * of the spheres' fixed shares (the contact overlap is not re-sintered), so
+ * mass is conserved exactly. A body
  * that sticks to a fixed body becomes part of the fixed body.
  *
  * New bodies are appended; when two bodies fuse the last body moves into the
@@ -246,9 +251,57 @@ status_t rigid_breakup(rigid_t *r, int *changed)
     return st;
 }
 
+/* Whether spheres i and j (at xi, xj) touch or overlap. */
+static int touching(const rigid_t *r, int i, int j, const double xi[3], const double xj[3])
+{
+    double d[3];
+    rv_sub(xj, xi, d);
+    return rv_norm(d) <= (r->spheres[i].radius + r->spheres[j].radius) * (1.0 + RIGID_TOUCH_TOL);
+}
+
+/* Whether spheres i and j touch or overlap where their bodies are now. */
+static int touching_now(const rigid_t *r, int i, int j)
+{
+    double xi[3], xj[3];
+    rigid_sphere_world(r, r->bodies, i, xi, NULL, NULL);
+    rigid_sphere_world(r, r->bodies, j, xj, NULL, NULL);
+    return touching(r, i, j, xi, xj);
+}
+
+/* The slot of the connection made when spheres a and b stick: the pair's own
+ * broken sticking connection if it has one, else the first broken sticking
+ * connection that is dead (its spheres neither touch nor hold a broken neck's
+ * overlap, and are of different scene bodies: for a pair of one scene body the
+ * entry is what keeps rigid_bonded from taking it for an implicit bond), else
+ * a new one (-1). Scene connections (k < cfg.nconnections) are never reused:
+ * they keep their index, pair and outputs. So the sticking connections are
+ * bounded by the pairs that touch at once, instead of growing by one with
+ * every fusion of a pair that sticks and breaks again. */
+static int stick_slot(const rigid_t *r, int a, int b)
+{
+    int dead = -1;
+    for (int k = r->cfg.nconnections; k < r->nconn; k++) {
+        const rigid_conn_t *c = &r->conn[k];
+        if (c->intact) {
+            continue;
+        }
+        if ((c->a == a && c->b == b) || (c->a == b && c->b == a)) {
+            return k;
+        }
+        if (dead < 0 && !(c->gap0 > 0.0) && r->spheres[c->a].orig_body != r->spheres[c->b].orig_body &&
+            !touching_now(r, c->a, c->b)) {
+            dead = k;
+        }
+    }
+    return dead;
+}
+
+/* The connection of spheres a and b that stick, with the fuse limits: in the
+ * slot stick_slot finds, else appended. */
 static status_t add_connection(rigid_t *r, int a, int b)
 {
-    if (r->nconn == r->conn_cap) {
+    int k = stick_slot(r, a, b);
+    if (k < 0 && r->nconn == r->conn_cap) {
         int cap = r->conn_cap < 8 ? 16 : 2 * r->conn_cap;
         rigid_conn_t *nc = realloc(r->conn, (size_t)cap * sizeof *nc);
         if (nc == NULL) {
@@ -262,7 +315,10 @@ static status_t add_connection(rigid_t *r, int a, int b)
         r->section = sec;
         r->conn_cap = cap;
     }
-    rigid_conn_t *c = &r->conn[r->nconn++];
+    if (k < 0) {
+        k = r->nconn++;
+    }
+    rigid_conn_t *c = &r->conn[k];
     memset(c, 0, sizeof *c);
     c->a = a;
     c->b = b;
@@ -436,14 +492,6 @@ double rigid_contact_reference(const rigid_t *r, int i, int j)
         }
     }
     return r->spheres[i].radius + r->spheres[j].radius;
-}
-
-/* Whether spheres i and j (at xi, xj) touch or overlap. */
-static int touching(const rigid_t *r, int i, int j, const double xi[3], const double xj[3])
-{
-    double d[3];
-    rv_sub(xj, xi, d);
-    return rv_norm(d) <= (r->spheres[i].radius + r->spheres[j].radius) * (1.0 + RIGID_TOUCH_TOL);
 }
 
 /* The touch flags of every sphere pair as they are now; own_body: only the

@@ -275,6 +275,102 @@ static void test_no_stick_when_fast(void)
     rigid_free(r);
 }
 
+/* One stick-and-break cycle of the test below: sphere 0 (the lower index) is
+ * pushed at sphere 1 with f until they fuse, then pulled away with f until
+ * their connection breaks and they no longer touch. Returns 1 if both events
+ * happened. */
+static int stick_and_break(rigid_t *r, int s0, int s1, double f, double h)
+{
+    const double push0[3] = {f, 0, 0}, push1[3] = {-f, 0, 0}, pull0[3] = {-f, 0, 0}, pull1[3] = {f, 0, 0};
+    int n = 0;
+    for (; n < 2000 && rigid_sphere_body(r, s0) != rigid_sphere_body(r, s1); n++) {
+        rigid_set_sphere_load(r, s0, push0, NULL);
+        rigid_set_sphere_load(r, s1, push1, NULL);
+        if (rigid_step(r, h) != STATUS_OK) {
+            return 0;
+        }
+    }
+    if (rigid_sphere_body(r, s0) != rigid_sphere_body(r, s1)) {
+        return 0;
+    }
+    double x0[3], x1[3];
+    int apart = 0;
+    for (n = 0; n < 2000 && !apart; n++) {
+        rigid_set_sphere_load(r, s0, pull0, NULL);
+        rigid_set_sphere_load(r, s1, pull1, NULL);
+        if (rigid_step(r, h) != STATUS_OK) {
+            return 0;
+        }
+        rigid_get_sphere(r, s0, x0, NULL, NULL);
+        rigid_get_sphere(r, s1, x1, NULL, NULL);
+        apart = rigid_sphere_body(r, s0) != rigid_sphere_body(r, s1) && vec_dist(x0, x1) > 2.0 * 0.01 * (1.0 + 1e-6);
+    }
+    return apart;
+}
+
+/* A pair that sticks and breaks again and again keeps one connection: the
+ * connection of a pair that sticks again is the one it had (revived with the
+ * fuse limits), and a broken sticking connection whose spheres have parted is
+ * reused by the next pair that sticks, so the connections are bounded by the
+ * touching pairs plus the scene's own. Scene connections keep their index and
+ * what they report. Before, every fusion appended one: 20 cycles left 20
+ * connections (21 with the scene's), growing without bound.
+ *
+ * Scene: a dumbbell (spheres 0-1, scene connection 0, so weak that it breaks
+ * in the first pull) and a free sphere 2 meeting sphere 1 head on along x,
+ * contact model none (the spheres meet and part under the loads alone),
+ * every contact sticking (stick_speed far above the speeds reached), the
+ * fused connections breaking under the pull (fuse_max_normal below it). */
+static void test_restick_reuses_connection(void)
+{
+    const double rr = 0.01, f = 1e-3, h = 1e-3;
+    rigid_sphere_cfg_t s[3] = {{{0, 0, 0}, rr, 0}, {{2 * rr, 0, 0}, rr, 0}, {{4 * rr + 2e-4, 0, 0}, rr, 1}};
+    rigid_body_cfg_t b[2] = {{1000.0, {0, 0, 0}, {0, 0, 0}, 0}, {1000.0, {0, 0, 0}, {0, 0, 0}, 0}};
+    rigid_connection_cfg_t c = {0, 1, 0.1 * f, 0, 0};
+    rigid_config_t cfg = test_cfg(3, s, 2, b, 1, &c);
+    cfg.stick_speed = 10.0;
+    cfg.fuse_max_normal = 0.5 * f;
+    test_log_t lg = {"", 0};
+    log_t log = {test_log_fn, &lg};
+    rigid_t *r = NULL;
+    CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, &log, &r), STATUS_OK);
+    int cycles = 0, most = 0;
+    /* sphere 1 against sphere 2; the first pull also breaks the scene's neck 0-1 */
+    for (int k = 0; k < 10; k++) {
+        cycles += stick_and_break(r, 1, 2, f, h);
+        most = rigid_nconnections(r) > most ? rigid_nconnections(r) : most;
+    }
+    /* then the scene's own pair, 0 against 1, sticks and breaks */
+    for (int k = 0; k < 10; k++) {
+        cycles += stick_and_break(r, 0, 1, f, h);
+        most = rigid_nconnections(r) > most ? rigid_nconnections(r) : most;
+    }
+    CU_ASSERT_EQUAL(lg.nerr, 0);
+    CU_ASSERT_EQUAL(cycles, 20);
+    CU_ASSERT_EQUAL(rigid_nbodies(r), 3);
+    /* the scene's connection plus one for the touching pair at a time */
+    CU_ASSERT(most <= 2);
+    CU_ASSERT(rigid_nconnections(r) <= 2);
+    if (most > 2) {
+        printf("\n  %d stick-and-break cycles left %d connections (largest count %d)\n", cycles, rigid_nconnections(r),
+               most);
+    }
+    /* scene connection 0: still the pair 0-1, broken in the first pull, reporting nothing since */
+    int a, bb, intact;
+    double fc[3], tc[3];
+    rigid_get_connection_pair(r, 0, &a, &bb);
+    rigid_get_connection(r, 0, fc, tc, &intact);
+    CU_ASSERT(a == 0 && bb == 1 && intact == 0);
+    CU_ASSERT(vec_norm(fc) == 0.0 && vec_norm(tc) == 0.0);
+    /* the one sticking connection: first 1-2's, then taken over by 0-1 once 2 had parted */
+    if (rigid_nconnections(r) == 2) {
+        rigid_get_connection_pair(r, 1, &a, &bb);
+        rigid_get_connection(r, 1, NULL, NULL, &intact);
+        CU_ASSERT(a == 0 && bb == 1 && intact == 0);
+    }
+    rigid_free(r);
+}
+
 void test_topology_register(void)
 {
     CU_pSuite s = CU_add_suite("rigid_topology", NULL, NULL);
@@ -287,4 +383,5 @@ void test_topology_register(void)
     CU_add_test(s, "a fusion's velocity jump is no energy growth of a contact (contact watch)",
                 test_fusion_jump_is_no_energy_growth);
     CU_add_test(s, "no sticking above stick_speed", test_no_stick_when_fast);
+    CU_add_test(s, "a pair that sticks and breaks again keeps one connection", test_restick_reuses_connection);
 }
