@@ -12,7 +12,9 @@
  *   3. forces at the new state; connection forces and torques (Eq. 8-9);
  *   4. break-up, then sticking; sections rebuilt if the topology changed.
  * Before cfg.release_time the step is hold_step's instead: free bodies move
- * on with their velocity and angular velocity, and no load acts.
+ * on with their velocity and angular velocity, and no load acts; the first
+ * step after the hold begins by judging the contacts made meanwhile for
+ * sticking, as new contacts (rigid_stick_at_release).
  * The velocities reported after a step are therefore the predicted ones
  * (with the held load); step 1 of the next call corrects them. */
 #include "rigid_internal.h"
@@ -338,8 +340,9 @@ static status_t forces_after_step(rigid_t *r, double h_kick)
  * centre of mass, both kept constant (the rotation is exact: q turned by
  * |w| h about w, and L = I_world w at the new attitude). No load acts and no
  * load is held over for the step after, no implicit correction is made or
- * owed, connections carry nothing and do not break, nothing sticks; the
- * contact state is followed, and a deep overlap is a fault as in any step. */
+ * owed, connections carry nothing and do not break, nothing sticks (a pair
+ * that comes into contact is judged at the release, rigid_step); the contact
+ * state is followed, and a deep overlap is a fault as in any step. */
 static status_t hold_step(rigid_t *r, double h)
 {
     rigid_kinematic_advance(r, h);
@@ -391,10 +394,21 @@ status_t rigid_step(rigid_t *r, double h)
     if (held_step(r, r->t, h)) {
         return hold_step(r, h);
     }
+    status_t st = STATUS_OK;
+    if (r->h_prev > 0.0 && held_step(r, r->t - r->h_prev, r->h_prev)) {
+        /* the release: contacts made while held are judged for sticking now */
+        int stuck = 0;
+        if ((st = rigid_stick_at_release(r, &stuck)) != STATUS_OK) {
+            return st;
+        }
+        if (stuck && (st = rigid_sections_update(r)) != STATUS_OK) {
+            return st;
+        }
+    }
     if (r->have_prev && r->cfg.load_correction) {
         load_correction(r);
     }
-    status_t st = rigid_implicit_load(r, h);
+    st = rigid_implicit_load(r, h);
     if (st != STATUS_OK) {
         return st;
     }

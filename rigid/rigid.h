@@ -110,7 +110,8 @@ typedef struct {
      * before it (0: none, also before t = 0) moves every free body with its current velocity and angular
      * velocity (kept constant) and applies no load to it (fluid, gravity,
      * contacts, lubrication); its connections carry nothing and cannot break,
-     * nothing sticks. The fluid meanwhile develops around the bodies, so that
+     * nothing sticks (a pair of bodies in contact at the release is judged for
+     * sticking then, as a new contact, by its normal speed then). The fluid meanwhile develops around the bodies, so that
      * a body put into a developed flow starts from the flow's steady load
      * instead of the impulsive start's (README "Release"). 0: no hold. */
     double release_time;

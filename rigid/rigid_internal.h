@@ -329,6 +329,13 @@ void rigid_connection_point(const rigid_t *r, int a, int b, const double xa[3], 
 /* ---- topology.c: break-up and sticking ---- */
 status_t rigid_breakup(rigid_t *r, int *changed);
 status_t rigid_stick(rigid_t *r, int *changed);
+/* At the release (rigid_config_t.release_time, before the first step that is
+ * not held): nothing stuck while the bodies were held, so every pair of
+ * different bodies in contact now is judged as a new contact, by its normal
+ * speed now, the held motion's, i.e. the speed the pair met with (the contact
+ * did not slow it); broken necks excepted. The touch flags are then those of
+ * now, so a pair is judged once. */
+status_t rigid_stick_at_release(rigid_t *r, int *changed);
 status_t rigid_regroup(rigid_t *r, int body);
 void rigid_touch_update(rigid_t *r); /* records which pairs touch now; follows broken necks */
 /* The touch flags at t0: the spheres of one body that touch (its sintered

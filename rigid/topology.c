@@ -483,6 +483,28 @@ status_t rigid_stick(rigid_t *r, int *changed)
     return STATUS_OK;
 }
 
+status_t rigid_stick_at_release(rigid_t *r, int *changed)
+{
+    const int ns = r->nspheres;
+    for (int i = 0; i < ns; i++) {
+        for (int j = i + 1; j < ns; j++) {
+            if (r->spheres[i].body != r->spheres[j].body) {
+                r->touch[(size_t)i * ns + j] = 0;
+            }
+        }
+    }
+    /* a broken neck's spheres overlap since the break, not since a touch */
+    for (int k = 0; k < r->nconn; k++) {
+        const rigid_conn_t *c = &r->conn[k];
+        if (c->gap0 > 0.0) {
+            r->touch[(size_t)(c->a < c->b ? c->a : c->b) * ns + (c->a < c->b ? c->b : c->a)] = 1;
+        }
+    }
+    const status_t st = rigid_stick(r, changed);
+    rigid_touch_update(r);
+    return st;
+}
+
 double rigid_contact_reference(const rigid_t *r, int i, int j)
 {
     for (int k = 0; k < r->nconn; k++) {

@@ -371,6 +371,72 @@ static void test_restick_reuses_connection(void)
     rigid_free(r);
 }
 
+/* Sphere 1 approaches sphere 0 (both free, single-sphere bodies) at speed v
+ * from a gap that closes within a hold of ten steps (release_time), contact
+ * spring-dashpot, stick_speed 0.05 m/s. Runs `steps` steps and returns the
+ * number of bodies; *p_err: the largest momentum error met, relative. */
+static int release_contact(rigid_integrator_t integ, double v, int steps, double *p_err)
+{
+    const double rr = 0.01, h = 1e-3, gap = 2e-5;
+    rigid_sphere_cfg_t s[2] = {{{0, 0, 0}, rr, 0}, {{2 * rr + gap, 0, 0}, rr, 1}};
+    rigid_body_cfg_t b[2] = {{1000.0, {0, 0, 0}, {0, 0, 0}, 0}, {1000.0, {-v, 0, 0}, {0, 0, 0}, 0}};
+    rigid_config_t cfg = test_cfg(2, s, 2, b, 0, NULL);
+    cfg.integrator = integ;
+    cfg.contact_model = RIGID_CONTACT_SPRING_DASHPOT;
+    cfg.contact_time = 1e-2;
+    cfg.restitution = 0.5;
+    cfg.stick_speed = 0.05;
+    cfg.release_time = 10 * h;
+    rigid_t *r = NULL;
+    if (rigid_create(&cfg, NULL, &r) != STATUS_OK) {
+        return -1;
+    }
+    double p0[3], l0[3], p[3], l[3];
+    rigid_momentum(r, p0, l0);
+    *p_err = 0.0;
+    for (int n = 0; n < steps; n++) {
+        if (rigid_step(r, h) != STATUS_OK) {
+            rigid_free(r);
+            return -1;
+        }
+        rigid_momentum(r, p, l);
+        *p_err = fmax(*p_err, rel3(p, p0));
+    }
+    const int nb = rigid_nbodies(r);
+    rigid_free(r);
+    return nb;
+}
+
+/* A contact made while the bodies are held (release_time) is judged for
+ * sticking at the release as a new contact is, by its normal speed there, the
+ * speed the pair met with (the held motion is not slowed by the contact):
+ * at 0.01 m/s, below stick_speed, the pair fuses at the release, momentum
+ * kept; at 0.1 m/s, above it, it does not and bounces, also after the
+ * contact force of the overlap the hold let build up (1e-3 m, 0.1 r) has
+ * stopped the approach within the first step after the release (judged then,
+ * the pair would fuse). Before, the pair was already marked touching when
+ * released, so no new contact was seen and nothing stuck: the slow pair
+ * stayed two bodies and bounced apart. */
+static void test_contact_made_while_held_sticks_at_release(void)
+{
+    for (int integ = 0; integ < 2; integ++) {
+        const rigid_integrator_t in = integ ? RIGID_CVODE : RIGID_VERLET;
+        double err;
+        CU_ASSERT_EQUAL(release_contact(in, 0.01, 10, &err), 2); /* held: nothing sticks */
+        const int slow = release_contact(in, 0.01, 11, &err);
+        CU_ASSERT_EQUAL(slow, 1); /* fused at the release */
+        CU_ASSERT(err < 1e-12);
+        const int slow_later = release_contact(in, 0.01, 200, &err);
+        CU_ASSERT_EQUAL(slow_later, 1);
+        const int fast = release_contact(in, 0.1, 200, &err);
+        CU_ASSERT_EQUAL(fast, 2);
+        if (slow != 1 || fast != 2) {
+            printf("\n  %s: after the release slow pair %d bodies (200 steps: %d), fast pair %d\n",
+                   integ ? "cvode" : "verlet", slow, slow_later, fast);
+        }
+    }
+}
+
 void test_topology_register(void)
 {
     CU_pSuite s = CU_add_suite("rigid_topology", NULL, NULL);
@@ -384,4 +450,6 @@ void test_topology_register(void)
                 test_fusion_jump_is_no_energy_growth);
     CU_add_test(s, "no sticking above stick_speed", test_no_stick_when_fast);
     CU_add_test(s, "a pair that sticks and breaks again keeps one connection", test_restick_reuses_connection);
+    CU_add_test(s, "a contact made while held is judged for sticking at the release",
+                test_contact_made_while_held_sticks_at_release);
 }
