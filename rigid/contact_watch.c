@@ -15,9 +15,9 @@
  *    approach speed v_in of the contact point, kept from the last sample
  *    before the touch;
  *  - in contact: the pair's normal energy as a speed,
- *      v_E = sqrt(v_n^2 + 2 E_el(delta) / m_eff)
- *    (kinetic energy of the normal relative motion plus the elastic energy of
- *    the overlap, contact.c), and at the first sample after separation
+ *      v_E = sqrt(v_n^2 + 2 E_el(delta) / m_n)
+ *    (kinetic energy of the normal relative motion of the contact point, of
+ *    mass m_n along n, plus the elastic energy of the overlap, contact.c), and at the first sample after separation
  *    v_E = |v_n|, the rebound speed;
  *  - an allowance for what the other forces may add: the time integral, from
  *    the last sample before the touch, of the normal relative acceleration
@@ -216,16 +216,17 @@ static int watch_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t
     const double vn = rv_dot(p->vrel, p->n); /* > 0: approaching */
     const double noise =
         WATCH_FLOOR * (speed_scale(bodies, bi, p->ai) + (bj >= 0 ? speed_scale(bodies, bj, p->aj) : 0.0));
-    /* the other forces' share of the normal relative acceleration, a_total +
-     * f_n / m_eff (in contact the contact pushes i back along n with f_n),
-     * and the rotation bounds; at every sample, near or in contact, so that
-     * the interval up to the touch has the rate at both its ends */
+    /* the other forces' share of the normal relative acceleration of the
+     * centres, a_total + f_n (1/M_i + 1/M_j) (in contact the contact pushes i
+     * back along n with f_n), and the rotation bounds; at every sample, near
+     * or in contact, so that the interval up to the touch has the rate at
+     * both its ends */
     const int touching = p->gap < 0.0;
     const double delta = -p->gap;
-    double meff = 0.0, rstar = 0.0, omega0 = 0.0, fn = 0.0;
+    double mn = 0.0, meff = 0.0, rstar = 0.0, omega0 = 0.0, fn = 0.0;
     if (touching) {
-        rigid_contact_pair_mass(r, bodies, p, &meff, &rstar);
-        fn = rigid_contact_normal_force(&r->cfg, delta, vn, meff, rstar, &omega0);
+        rigid_contact_pair_mass(r, bodies, p, &mn, &meff, &rstar);
+        fn = rigid_contact_normal_force(&r->cfg, delta, vn, mn, rstar, &omega0);
     }
     double atot = 0.0;
     for (int a = 0; a < 3; a++) {
@@ -272,8 +273,8 @@ static int watch_pair(rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t
     w->allow += c->dt * fmax(rate, w->rate) + kick;
     w->rate = rate;
     w->omega0 = fmax(w->omega0, omega0);
-    const double e_el = rigid_contact_elastic_energy(&r->cfg, delta, meff, rstar);
-    const double ve = sqrt(vn * vn + 2.0 * e_el / meff);
+    const double e_el = rigid_contact_elastic_energy(&r->cfg, delta, mn, rstar);
+    const double ve = sqrt(vn * vn + 2.0 * e_el / mn);
     if (ve > WATCH_TOL * w->v_in + w->allow + noise) {
         c->st = watch_report(r, w, ve, c->t, c->dt);
     }

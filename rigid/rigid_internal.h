@@ -284,14 +284,18 @@ int rigid_pairs_visit(rigid_t *r, const rigid_body_t *bodies, const double (*x)[
 const char *rigid_face_name(int face); /* "x_min" ... "z_max" */
 
 /* ---- contact.c helpers and contact_watch.c (after the pair type) ---- */
-/* The effective mass m_eff and radius R* of a pair (a fixed body or a wall: infinite mass). */
-void rigid_contact_pair_mass(const rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t *p, double *meff,
-                             double *rstar);
-/* The normal force (repulsive > 0) at overlap delta and approach speed ddelta, and omega0. */
-double rigid_contact_normal_force(const rigid_config_t *cfg, double delta, double ddelta, double meff, double rstar,
+/* The masses and radius R* of a pair: mn the contact point's mass along n,
+ * rotation included (1/mn = sum of rigid_body_compliance over the partners;
+ * what the normal law is built on), meff the translational reduced mass (a
+ * fixed body or a wall: infinite mass; friction's scale). */
+void rigid_contact_pair_mass(const rigid_t *r, const rigid_body_t *bodies, const rigid_pair_t *p, double *mn,
+                             double *meff, double *rstar);
+/* The normal force (repulsive > 0) at overlap delta and approach speed ddelta
+ * of a contact whose point has the mass mn along n, and omega0. */
+double rigid_contact_normal_force(const rigid_config_t *cfg, double delta, double ddelta, double mn, double rstar,
                                   double *omega0);
 /* The elastic energy stored at overlap delta (the spring part of the law). */
-double rigid_contact_elastic_energy(const rigid_config_t *cfg, double delta, double meff, double rstar);
+double rigid_contact_elastic_energy(const rigid_config_t *cfg, double delta, double mn, double rstar);
 /* contact_watch.c: after an accepted step to time t of the bodies (r->sx,
  * r->bf, r->bt from rigid_forces on them): STATUS_ERROR when a contact has
  * gained energy (the message names time, bodies, ratio, contact time, step
