@@ -32,8 +32,10 @@
 #include <stdint.h>
 
 /* the sums of a sphere's fill: force (3), torque (3), the drag coefficients
- * zt, zr, and the density and the number of its links outside the film zone */
-#define SPHERE_NACC 10
+ * zt, zr, the density and the number of its links outside the film zone, and
+ * the mass its links gave the fluid beyond bounce-back's and the weight the
+ * next fill shares the debt out by (sphere_fill.c "mass balance") */
+#define SPHERE_NACC 12
 
 typedef struct {
     double c[3], v[3], w[3]; /* centre (lattice coordinates), velocity, angular velocity (lattice units) */
@@ -49,6 +51,11 @@ typedef struct {
     double zt, zr;           /* drag coefficients of the last step: -dF/dv and -dT/dw (isotropic parts) */
     double rho_film;         /* mean density at the fluid cells of its links outside the film zone, last step:
                                 the ambient density the momentum exchange is centred on (sphere_fill.c) */
+    double mass_debt;        /* mass its links gave the fluid beyond bounce-back's flux and not yet taken back,
+                                after the last fill and the one before, and the weight sum_links w_q (1 -
+                                3 c_q.u_w) of the last fill (sphere_fill.c "mass balance") */
+    double mass_debt_prev;
+    double mass_weight;
     double density_ratio;    /* particle / fluid density */
     double cmap[3];          /* centre at the last map stage: a sphere that has not moved keeps its links */
     int averaging;           /* deliver the load averaged over two steps (common/coupling.h) */
@@ -131,6 +138,10 @@ typedef struct {
  * link without its kept pair (new this step) and without the other array
  * then goes without the correction for that step. */
 #define SPHERES_MR_DECAY_MIN 0.05
+
+/* The part of a sphere's mass debt (the mean of the last two) that a fill
+ * returns to the fluid (sphere_fill.c "mass balance") */
+#define SPHERES_MASS_GAIN 0.5
 
 /* sphere_link_t.have: x_f lies between two walls along c_q, and the other
  * one is a sphere's, whose index xfff then holds (sphere_links.c pinched) */

@@ -140,8 +140,9 @@ static status_t check_solid(const fluid_t *fl, const uint8_t *flags, const unsig
  * same scene; the kinematics, loads and watch finite; the centre where the
  * component keeps it (wrapped into the box on periodic axes). */
 _Static_assert(offsetof(sphere_t, amp_grow0) == offsetof(sphere_t, hist) + 26 * sizeof(double) &&
-                   offsetof(sphere_t, zr) == offsetof(sphere_t, zt) + sizeof(double),
-               "check_sphere reads hist .. amp_grow0 and zt, zr as runs of doubles");
+                   offsetof(sphere_t, zr) == offsetof(sphere_t, zt) + sizeof(double) &&
+                   offsetof(sphere_t, mass_weight) == offsetof(sphere_t, mass_debt) + 2 * sizeof(double),
+               "check_sphere reads hist .. amp_grow0, zt, zr and mass_debt .. mass_weight as runs of doubles");
 
 static status_t check_sphere(const fluid_t *fl, int k, const sphere_t *p)
 {
@@ -184,6 +185,7 @@ static status_t check_sphere(const fluid_t *fl, int k, const sphere_t *p)
         {"previous torque", offsetof(sphere_t, tprev), 3},
         {"drag coefficients", offsetof(sphere_t, zt), 2},
         {"ambient density of the film zone", offsetof(sphere_t, rho_film), 1},
+        {"mass debt of the links", offsetof(sphere_t, mass_debt), 3},
         {"centre at the last map", offsetof(sphere_t, cmap), 3},
         {"period-2 watch", offsetof(sphere_t, hist), 18 + 6 + 3},
     };

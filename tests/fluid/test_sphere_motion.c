@@ -97,6 +97,108 @@ static void test_mirror_symmetric_motion(void)
 }
 
 
+/* ---- the fluid's mass around a moving sphere near tau = 1/2 -------------- */
+
+/* A prescribed sphere of radius 5 in a closed 32^3 box (no-slip faces) at
+ * tau 0.51, TRT at the scheme's default Lambda (1/4 multireflection, 3/16
+ * otherwise, where the faces' bounce-back keeps mass exactly): rotating
+ * about z at a surface speed of 0.05 in the middle (rotate), or moving
+ * down at 0.03 cells a step from 2.5 radii below the lid (translate).
+ * Returns the largest |M(n) - M(0)| / M(0) over the steps, the fluid's mass
+ * M checked every 50 steps; NaN if the run failed. */
+static double mass_drift(boundary_scheme_t scheme, int rotate, long steps, precision_t precision, streaming_t layout)
+{
+    const double a = 5.0;
+    const int L = 32;
+    const double magic = test_box_magic;
+    const precision_t prec = test_box_precision;
+    const streaming_t str = test_box_streaming;
+    test_box_magic = scheme == BOUNDARY_MULTIREFLECTION ? 0.25 : 0.1875;
+    test_box_precision = precision;
+    test_box_streaming = layout;
+    scene_t s = test_box(L, L, L, 0.51, COLLISION_TRT);
+    test_box_magic = magic;
+    test_box_precision = prec;
+    test_box_streaming = str;
+    for (int f = 0; f < 6; f++) {
+        s.domain.faces[f].type = FACE_NO_SLIP;
+    }
+    const double c[3] = {L / 2.0 + 0.13, L / 2.0 - 0.21, rotate ? L / 2.0 + 0.31 : L - 2.5 * a + 0.07};
+    scene_body_t *b = harness_one_sphere(&s, c, a, MOTION_PRESCRIBED);
+    if (rotate) {
+        b->angular_velocity[2] = 0.05 / a;
+    } else {
+        b->velocity[2] = -0.03;
+    }
+    s.fluid.boundary_scheme = scheme;
+    s.fluid.refill = REFILL_EXTRAPOLATION;
+    s.fluid.force_method = FORCE_GALILEAN;
+    fluid_t *fl = test_fluid(&s);
+    if (fl == NULL) {
+        return NAN;
+    }
+    double m0, m, mom[3], kin, umax, peak[3], worst = 0.0;
+    if (fluid_diagnostics_lattice(fl, 1.0, &m0, mom, &kin, &umax, peak) != STATUS_OK) {
+        worst = NAN;
+    }
+    for (long n = 1; n <= steps && isfinite(worst); n++) {
+        if (fluid_step(fl) != STATUS_OK) {
+            worst = NAN;
+        } else if (n % 50 == 0) {
+            if (fluid_diagnostics_lattice(fl, 1.0, &m, mom, &kin, &umax, peak) != STATUS_OK) {
+                worst = NAN;
+            } else {
+                worst = fmax(worst, fabs(m - m0) / m0);
+            }
+        }
+    }
+    fluid_free(fl);
+    return worst;
+}
+
+/* The interpolated schemes give the fluid mass through their links beyond
+ * bounce-back's moving-wall flux (sphere_fill.c "mass balance"). Measured
+ * before each sphere took that net back (the helper's sweep, 2026-11-27, and
+ * this test's scenes): a sphere that only rotates raised the fluid's mass by
+ * 3.6e-3 (yu) and 4.7e-3 (quadratic) in 800 steps, without bound (bounce-
+ * back 1.7e-6); now 8e-6 and 1.3e-5. cli and multireflection are left out here:
+ * at tau 0.51 this rotating sphere goes unstable with them, with or without
+ * the balance (README "Known problems"); cli at tau 0.8 gained 1.2e-4. */
+static void test_rotating_sphere_keeps_mass(void)
+{
+    static const boundary_scheme_t schemes[2] = {BOUNDARY_YU, BOUNDARY_QUADRATIC};
+    for (int k = 0; k < 2; k++) {
+        const double d = mass_drift(schemes[k], 1, 800, PRECISION_DOUBLE, STREAMING_IN_PLACE);
+        printf("\n    %s, rotating, tau 0.51, 800 steps: fluid mass within %.2e", boundary_scheme_names[schemes[k]], d);
+        CU_ASSERT(d < 2e-5);
+    }
+    /* single precision and two arrays keep it too */
+    const double s1 = mass_drift(BOUNDARY_YU, 1, 800, PRECISION_SINGLE, STREAMING_IN_PLACE);
+    const double s2 = mass_drift(BOUNDARY_YU, 1, 800, PRECISION_DOUBLE, STREAMING_TWO_ARRAY);
+    printf("; single %.2e, two arrays %.2e", s1, s2);
+    CU_ASSERT(s1 < 2e-5);
+    CU_ASSERT(s2 < 2e-5);
+}
+
+/* Multireflection's n^- correction with TRT near tau = 1/2 gave a sphere
+ * moving down a closed box a net mass: 1.6e-3 of the fluid's after 400
+ * steps, growing linearly (the other schemes, whose covered and uncovered
+ * cells take back bounce-back's flux, about 1e-4 and bounded). Now within
+ * bounce-back's figure. */
+static void test_translating_sphere_keeps_mass(void)
+{
+    const double mr = mass_drift(BOUNDARY_MULTIREFLECTION, 0, 400, PRECISION_DOUBLE, STREAMING_IN_PLACE);
+    const double bb = mass_drift(BOUNDARY_BOUNCE_BACK, 0, 400, PRECISION_DOUBLE, STREAMING_IN_PLACE);
+    const double two = mass_drift(BOUNDARY_MULTIREFLECTION, 0, 400, PRECISION_DOUBLE, STREAMING_TWO_ARRAY);
+    printf("\n    moving at 0.03, tau 0.51, 400 steps: fluid mass within %.2e (multireflection), %.2e (two "
+           "arrays), %.2e (bounce-back)",
+           mr, two, bb);
+    CU_ASSERT(mr < 2e-4);
+    CU_ASSERT(two < 2e-4);
+    CU_ASSERT(bb < 2e-4);
+}
+
+
 /* ---- bad input: a sphere that moves too far in one step ----------------- */
 
 /* A sphere of radius 3 at the centre of a periodic 16^3 box at tau 0.8, its
@@ -313,6 +415,10 @@ void sphere_motion_register_tests(void)
                 test_uncovered_cells_stay_quiet);
     CU_add_test(s, "a fast sphere at tau 0.51: multireflection stops naming cli, cli runs",
                 test_fast_sphere_near_half_tau);
+    CU_add_test(s, "a sphere rotating at tau 0.51 keeps the fluid's mass (yu, quadratic)",
+                test_rotating_sphere_keeps_mass);
+    CU_add_test(s, "a sphere moving at tau 0.51 keeps the fluid's mass (multireflection, TRT)",
+                test_translating_sphere_keeps_mass);
     CU_add_test(s, "a sphere moving more than half a cell per step is refused", test_sphere_speed_limits);
     CU_add_test(s, "a too-fast sphere's remedy: the coupling first for a light body, no smaller tau near 1/2",
                 test_sphere_speed_remedies);
