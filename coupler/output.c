@@ -360,7 +360,6 @@ status_t output_open(const char *path, const scene_t *scene, const units_t *u, c
         output_close(o);
         return STATUS_ERROR;
     }
-    o->last_write = now_seconds(); /* the first rows go in within a second too */
     const double grid[3] = {u->n[0], u->n[1], u->n[2]}, ranks = layout->ranks;
     st = attr_string(o, o->file, "scene", scene->text ? scene->text : "");
     st = status_worst(st, attr_string(o, o->file, "scene_file", scene->path ? scene->path : ""));
