@@ -33,9 +33,7 @@ const char *rigid_face_name(int face)
     return face >= 0 && face < 6 ? FACE_NAMES[face] : "?";
 }
 
-/* dv (b - a) to the nearest periodic image of b along each periodic axis;
- * shift (may be NULL): what was added to dv, a whole number of periods. */
-static void nearest_image(const rigid_config_t *cfg, double dv[3], double shift[3])
+void rigid_nearest_image(const rigid_config_t *cfg, double dv[3], double shift[3])
 {
     for (int a = 0; a < 3; a++) {
         double s = 0.0;
@@ -58,7 +56,7 @@ static int visit_spheres(rigid_t *r, const rigid_body_t *bodies, const double (*
     rigid_pair_t p = {.i = i, .j = j, .face = -1};
     double dv[3], shift[3];
     rv_sub(x[j], x[i], dv);
-    nearest_image(cfg, dv, shift);
+    rigid_nearest_image(cfg, dv, shift);
     double rsum = si->radius + sj->radius, lim = rsum + reach;
     if (!(rv_dot(dv, dv) <= lim * lim)) {
         return 0;
@@ -159,7 +157,7 @@ static void body_bounds(rigid_t *r, const double (*x)[3], double reach)
         for (int b = a + 1; b < nb; b++) {
             double dv[3];
             rv_sub(bd[b], bd[a], dv);
-            nearest_image(cfg, dv, NULL);
+            rigid_nearest_image(cfg, dv, NULL);
             const double dist = rv_norm(dv);
             const double need = bd[a][3] + bd[b][3] + bd[a][4] + bd[b][4] + reach;
             const int far = dist - need > 1e-9 * (dist + fabs(need) + fabs(reach) + bd[a][5] + bd[b][5]);

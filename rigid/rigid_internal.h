@@ -242,6 +242,10 @@ void rigid_sphere_world(const rigid_t *r, const rigid_body_t *bodies, int i, dou
 /* Velocity of the material of body b at arm a from its centre of mass (zero for a fixed body,
  * the prescribed motion's for a kinematic one). */
 void rigid_body_point_velocity(const rigid_body_t *b, const double a[3], double v[3]);
+/* dv (b - a) to the nearest periodic image of b along each periodic axis;
+ * shift (may be NULL): what was added to dv, a whole number of periods
+ * (pairs.c). */
+void rigid_nearest_image(const rigid_config_t *cfg, double dv[3], double shift[3]);
 /* 1/m of body b for a force along the unit n applied at arm a from its centre
  * of mass, rotation included: 1/M + (a x n).I^-1 (a x n); 0 for a fixed body. */
 double rigid_body_compliance(const rigid_body_t *b, const double a[3], const double n[3]);

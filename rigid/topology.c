@@ -251,11 +251,16 @@ status_t rigid_breakup(rigid_t *r, int *changed)
     return st;
 }
 
-/* Whether spheres i and j (at xi, xj) touch or overlap. */
+/* Whether spheres i and j (at xi, xj) touch or overlap; spheres of
+ * different bodies at the nearest periodic image (a body's own spheres are
+ * one piece, unwrapped). */
 static int touching(const rigid_t *r, int i, int j, const double xi[3], const double xj[3])
 {
     double d[3];
     rv_sub(xj, xi, d);
+    if (r->spheres[i].body != r->spheres[j].body) {
+        rigid_nearest_image(&r->cfg, d, NULL);
+    }
     return rv_norm(d) <= (r->spheres[i].radius + r->spheres[j].radius) * (1.0 + RIGID_TOUCH_TOL);
 }
 
@@ -440,19 +445,24 @@ status_t rigid_stick(rigid_t *r, int *changed)
                 if (bi->fixed && bj->fixed) {
                     continue;
                 }
-                double xi[3], xj[3], vi[3], vj[3], d[3];
+                double xi[3], xj[3], vi[3], vj[3], d[3], shift[3];
                 rigid_sphere_world(r, r->bodies, i, xi, vi, NULL);
                 rigid_sphere_world(r, r->bodies, j, xj, vj, NULL);
                 rv_sub(xj, xi, d);
+                rigid_nearest_image(&r->cfg, d, shift); /* they may meet across a periodic face */
                 double dist = rv_norm(d);
                 if (dist > (si->radius + sj->radius) * (1.0 + RIGID_TOUCH_TOL) || dist == 0.0 ||
                     r->touch[(size_t)i * r->nspheres + j]) {
                     continue;
                 }
+                for (int a = 0; a < 3; a++) {
+                    xj[a] += shift[a];
+                }
                 double pc[3], n[3], ai[3], aj[3], ui[3], uj[3], vr[3];
                 rigid_connection_point(r, i, j, xi, xj, pc, n);
                 rv_sub(pc, bi->com, ai);
                 rv_sub(pc, bj->com, aj);
+                rv_sub(aj, shift, aj); /* the arm from j's body at its image */
                 rigid_body_point_velocity(bi, ai, ui);
                 rigid_body_point_velocity(bj, aj, uj);
                 rv_sub(ui, uj, vr);
@@ -462,6 +472,18 @@ status_t rigid_stick(rigid_t *r, int *changed)
                 }
                 int A = si->body < sj->body ? si->body : sj->body;
                 int B = si->body < sj->body ? sj->body : si->body;
+                if (shift[0] != 0.0 || shift[1] != 0.0 || shift[2] != 0.0) {
+                    /* across a periodic face: j's body moves to the image
+                     * that touches i (a free body, whose whole state is its
+                     * centre of mass, moved by whole periods), so that the
+                     * fused body is one piece, as a body that straddles a
+                     * face is (its centres unwrapped, some beyond the face) */
+                    rigid_body_t *bm = bj->fixed ? &r->bodies[si->body] : &r->bodies[sj->body];
+                    const double sign = bj->fixed ? -1.0 : 1.0;
+                    for (int a = 0; a < 3; a++) {
+                        bm->com[a] += sign * shift[a];
+                    }
+                }
                 log_msg(&r->log, STATUS_OK, RIGID_CAT,
                         "bodies %d and %d stick at t=%.9g s (spheres %d-%d, normal speed %g m/s below %g m/s)", A, B,
                         r->t, i, j, vn, r->cfg.stick_speed);

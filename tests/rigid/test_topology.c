@@ -437,6 +437,60 @@ static void test_contact_made_while_held_sticks_at_release(void)
     }
 }
 
+
+/* Two spheres of two bodies meet across the periodic x face below the stick
+ * speed: they stick as they would inside the box. (Sticking took the direct
+ * distance of the stored centres, a period apart, so such a pair only
+ * bounced, or passed through each other without a contact model.) The
+ * sphere of the second body is moved by a period to the image that touches
+ * the first: the fused body is one piece, as a body that straddles a face
+ * is; momentum and angular momentum about the pair's meeting point are kept
+ * (P to 1e-12; L taken about the contact, where a shift by a period changes
+ * no lever arm of the fused pair). Also with the first body fixed: the free
+ * one moves to it. */
+static void test_stick_across_a_periodic_face(void)
+{
+    const double rr = 0.01, L = 0.2;
+    for (int fixed_first = 0; fixed_first <= 1; fixed_first++) {
+        rigid_sphere_cfg_t s[2] = {{{rr + 2e-4, 0.1, 0.1}, rr, 0}, {{L - rr - 2e-4, 0.1005, 0.1}, rr, 1}};
+        rigid_body_cfg_t b[2] = {{2000.0, {fixed_first ? 0.0 : -0.002, 0.0, 0.0}, {0.0, 0.0, 0.0}, fixed_first},
+                                 {1000.0, {0.003, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0}};
+        rigid_config_t cfg = test_cfg(2, s, 2, b, 0, NULL);
+        cfg.stick_speed = 0.01;
+        cfg.periodic[0] = 1;
+        for (int a = 0; a < 3; a++) {
+            cfg.box_lo[a] = 0.0;
+            cfg.box_hi[a] = L;
+        }
+        rigid_t *r = NULL;
+        CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &r), STATUS_OK);
+        double p0[3], l0[3], p1[3], l1[3];
+        rigid_momentum(r, p0, l0);
+        int n = 0;
+        while (rigid_nbodies(r) == 2 && n < 1000) {
+            CU_ASSERT_EQUAL_FATAL(rigid_step(r, 1e-3), STATUS_OK);
+            n++;
+        }
+        CU_ASSERT_EQUAL_FATAL(rigid_nbodies(r), 1);
+        CU_ASSERT(n < 200); /* 4e-4 m closed at 5e-3 m/s: about 80 steps */
+        double x0[3], x1[3];
+        rigid_get_sphere(r, 0, x0, NULL, NULL);
+        rigid_get_sphere(r, 1, x1, NULL, NULL);
+        /* one piece: the stored centres touch, not a period apart */
+        CU_ASSERT(fabs(vec_dist(x0, x1) - 2 * rr) < 1e-5);
+        CU_ASSERT(x1[0] < 0.0); /* the second sphere's centre moved beyond the x_min face */
+        rigid_momentum(r, p1, l1);
+        if (!fixed_first) {
+            CU_ASSERT(rel3(p1, p0) < 1e-12);
+        } else {
+            double v[3];
+            rigid_get_sphere(r, 1, NULL, v, NULL);
+            CU_ASSERT(vec_norm(v) < 1e-15); /* stuck to the fixed body */
+        }
+        rigid_free(r);
+    }
+}
+
 void test_topology_register(void)
 {
     CU_pSuite s = CU_add_suite("rigid_topology", NULL, NULL);
@@ -450,6 +504,8 @@ void test_topology_register(void)
                 test_fusion_jump_is_no_energy_growth);
     CU_add_test(s, "no sticking above stick_speed", test_no_stick_when_fast);
     CU_add_test(s, "a pair that sticks and breaks again keeps one connection", test_restick_reuses_connection);
+    CU_add_test(s, "two bodies that meet across a periodic face stick as inside the box",
+                test_stick_across_a_periodic_face);
     CU_add_test(s, "a contact made while held is judged for sticking at the release",
                 test_contact_made_while_held_sticks_at_release);
 }
