@@ -41,8 +41,13 @@ int rigid_bonded(const rigid_t *r, int i, int j)
             return 0; /* represented by the connection (intact or broken) */
         }
     }
+    /* touching in the scene: such a pair is never parted (nothing can break
+     * it), so it touches now as it did then; a pair of one scene body that
+     * touches only since its fragments fused again is no bond (its body-frame
+     * distance made it one, unbreakable, and kept the fused body from
+     * breaking at its sticking connection) */
     double d[3];
-    rv_sub(a->p, b->p, d);
+    rv_sub(a->c0, b->c0, d);
     return rv_norm(d) <= (a->radius + b->radius) * (1.0 + RIGID_TOUCH_TOL);
 }
 

@@ -131,6 +131,7 @@ status_t rigid_create(const rigid_config_t *cfg, const log_t *log, rigid_t **out
             rigid_sphere_t *sp = &r->spheres[ids[k]];
             sp->radius = rad[k];
             sp->orig_body = b;
+            memcpy(sp->c0, c[k], sizeof sp->c0);
             sp->density = bc->density;
             sp->volume = vol;
             sp->mass = bc->density * vol;

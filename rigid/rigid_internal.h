@@ -31,6 +31,8 @@ typedef struct {
     int body;
     int orig_body;    /* body index in the scene: implicit bonds join touching spheres of one scene body */
     double density;   /* of its original body's material */
+    double c0[3];     /* centre in the scene, at t0: implicit bonds are the pairs of one scene body touching
+                       * there (rigid_bonded) */
     double p[3];      /* centre, body frame relative to the body's centre of mass */
     double mass;      /* share mass (kg) */
     double volume;    /* share volume (m^3) */
@@ -327,7 +329,7 @@ extern const rigid_integrator_ops_t rigid_cvode_ops;
 
 /* ---- connection.c ---- */
 #define RIGID_TOUCH_TOL 1e-9 /* relative: spheres touch when d <= (r_a + r_b)(1 + tol) */
-int rigid_bonded(const rigid_t *r, int i, int j); /* implicit bond between i and j (same scene body, touching) */
+int rigid_bonded(const rigid_t *r, int i, int j); /* implicit bond between i and j (same scene body and body, touching at t0) */
 status_t rigid_sections_update(rigid_t *r);
 void rigid_connections_eval(rigid_t *r);
 /* connection point (centre of the contact circle) and unit normal from a to b */

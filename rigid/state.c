@@ -101,9 +101,9 @@ static status_t check_sphere(const rigid_t *r, int i, const rigid_sphere_t *sp, 
     if (memcmp(&sp->radius, &mine->radius, sizeof sp->radius) != 0 || sp->orig_body != mine->orig_body ||
         memcmp(&sp->density, &mine->density, sizeof sp->density) != 0 ||
         memcmp(&sp->mass, &mine->mass, sizeof sp->mass) != 0 ||
-        memcmp(&sp->volume, &mine->volume, sizeof sp->volume) != 0) {
+        memcmp(&sp->volume, &mine->volume, sizeof sp->volume) != 0 || memcmp(sp->c0, mine->c0, sizeof sp->c0) != 0) {
         return corrupt(r, "sphere %d: radius %.17g m, scene body %d, density %.17g kg/m^3, mass %.17g kg, volume "
-                       "%.17g m^3; this scene: %.17g, %d, %.17g, %.17g, %.17g", i, sp->radius, sp->orig_body,
+                       "%.17g m^3 (or its scene centre); this scene: %.17g, %d, %.17g, %.17g, %.17g", i, sp->radius, sp->orig_body,
                        sp->density, sp->mass, sp->volume, mine->radius, mine->orig_body, mine->density, mine->mass,
                        mine->volume);
     }

@@ -9,6 +9,8 @@
  * them too, and any difference is the event's. */
 #include "test_rigid_util.h"
 
+#include "../../rigid/rigid_internal.h"
+
 static double rel3(const double a[3], const double b[3]) { return vec_dist(a, b) / fmax(vec_norm(b), 1e-300); }
 
 static void test_breakup_conserves(void)
@@ -491,6 +493,38 @@ static void test_stick_across_a_periodic_face(void)
     }
 }
 
+
+/* Implicit bonds (touching spheres of one scene body without a connection,
+ * unbreakable) are the pairs that touch in the scene. A chain 0-1-2 of one
+ * scene body, 0-1 bonded, 1-2 a scene connection: sphere 2 put where it also
+ * touches sphere 0 in the body's frame, as after its fragment broke off and
+ * stuck again beside 0, makes 0-2 no bond. (The body-frame distance was
+ * taken: 0-2 became an unbreakable bond nothing had made, and the body could
+ * no longer break at 2's sticking connection.) */
+static void test_implicit_bonds_are_the_scene_touches(void)
+{
+    const double rr = 0.01;
+    rigid_sphere_cfg_t s[3] = {{{0, 0, 0}, rr, 0}, {{2 * rr, 0, 0}, rr, 0}, {{4 * rr, 0, 0}, rr, 0}};
+    rigid_body_cfg_t b[1] = {{1000.0, {0, 0, 0}, {0, 0, 0}, 0}};
+    rigid_connection_cfg_t c[1] = {{1, 2, 1e-3, 0, 0}};
+    rigid_config_t cfg = test_cfg(3, s, 1, b, 1, c);
+    rigid_t *r = NULL;
+    CU_ASSERT_EQUAL_FATAL(rigid_create(&cfg, NULL, &r), STATUS_OK);
+    CU_ASSERT(rigid_bonded(r, 0, 1));
+    CU_ASSERT(!rigid_bonded(r, 1, 2)); /* its connection stands for it */
+    CU_ASSERT(!rigid_bonded(r, 0, 2));
+    /* sphere 2 beside 0 and 1 (touching both), in the body's frame */
+    double *p0 = r->spheres[0].p, *p1 = r->spheres[1].p, *p2 = r->spheres[2].p;
+    for (int a = 0; a < 3; a++) {
+        p2[a] = 0.5 * (p0[a] + p1[a]);
+    }
+    p2[1] += sqrt(3.0) * rr;
+    CU_ASSERT(fabs(vec_dist(p2, p0) - 2 * rr) < 1e-12 && fabs(vec_dist(p2, p1) - 2 * rr) < 1e-12);
+    CU_ASSERT(!rigid_bonded(r, 0, 2));
+    CU_ASSERT(rigid_bonded(r, 0, 1));
+    rigid_free(r);
+}
+
 void test_topology_register(void)
 {
     CU_pSuite s = CU_add_suite("rigid_topology", NULL, NULL);
@@ -504,6 +538,8 @@ void test_topology_register(void)
                 test_fusion_jump_is_no_energy_growth);
     CU_add_test(s, "no sticking above stick_speed", test_no_stick_when_fast);
     CU_add_test(s, "a pair that sticks and breaks again keeps one connection", test_restick_reuses_connection);
+    CU_add_test(s, "implicit bonds are the pairs that touch in the scene, not since a fusion",
+                test_implicit_bonds_are_the_scene_touches);
     CU_add_test(s, "two bodies that meet across a periodic face stick as inside the box",
                 test_stick_across_a_periodic_face);
     CU_add_test(s, "a contact made while held is judged for sticking at the release",
