@@ -102,6 +102,15 @@ int scene_total_spheres(const scene_t *s)
     return n;
 }
 
+int scene_free_bodies(const scene_t *s)
+{
+    int n = 0;
+    for (int b = 0; b < s->nbodies; b++) {
+        n += s->bodies[b].motion == MOTION_FREE;
+    }
+    return n;
+}
+
 void scene_free(scene_t *s)
 {
     if (s == NULL) {

@@ -175,6 +175,8 @@ status_t scene_load(const char *path, const char *const *overrides, int noverrid
                     scene_t **out);
 void scene_free(scene_t *s);
 int scene_total_spheres(const scene_t *s);
+/* Bodies with motion free: the ones a rigid component moves (none: no rigid FMU). */
+int scene_free_bodies(const scene_t *s);
 const char *face_type_name(face_type_t t);
 /* A body's pivot (m): the centroid of its sphere centres weighted by r^3,
  * about which the fluid turns a prescribed body and at which a body that

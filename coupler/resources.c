@@ -41,10 +41,7 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
     /* the time series as the run lays them out (run.c): connections and
      * /bodies only with a rigid component; at most one row and one snapshot
      * per fluid step (shorter intervals write every step) */
-    int nfree = 0;
-    for (int b = 0; b < s->nbodies; b++) {
-        nfree += s->bodies[b].motion == MOTION_FREE;
-    }
+    const int nfree = scene_free_bodies(s);
     const output_layout_t layout = {.ns = scene_total_spheres(s), .nc = nfree > 0 ? s->nconnections : 0,
                                     .bodies = nfree > 0};
     const double rows = floor(t_end / fmax(s->run.output_interval, s->fluid.dt)) + 2.0;

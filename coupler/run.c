@@ -83,15 +83,6 @@ static int rm_entry(const char *path, const struct stat *sb, int flag, struct FT
     return remove(path) != 0 ? -1 : 0;
 }
 
-static int nfree_bodies(const scene_t *s)
-{
-    int n = 0;
-    for (int b = 0; b < s->nbodies; b++) {
-        n += s->bodies[b].motion == MOTION_FREE;
-    }
-    return n;
-}
-
 /* ------------------------------------------------------------------------ */
 /* The run                                                                   */
 
@@ -398,7 +389,7 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
         m.ranks = (checkpoint_ranks_t){d.size, {d.dims[0], d.dims[1], d.dims[2]}};
     }
     m.ns = scene_total_spheres(scene);
-    m.nfree_bodies = nfree_bodies(scene);
+    m.nfree_bodies = scene_free_bodies(scene);
     m.nc = m.nfree_bodies > 0 ? scene->nconnections : 0;
     const int k_lbm = opt->exchange_every > 0 ? opt->exchange_every : 1;
     /* the LBM step as the FMUs' DefaultExperiment states it (scene fluid.dt),

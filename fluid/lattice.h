@@ -50,6 +50,17 @@ static const unsigned char lb_opp[LB_Q] = {0, 10, 11, 12, 13, 14, 15, 16, 17, 18
 
 static inline int lb_opposite(int q) { return lb_opp[q]; }
 
+/* The direction whose velocity is c (0, the rest direction, for none). */
+static inline int lb_direction(const int c[3])
+{
+    for (int q = 1; q < LB_Q; q++) {
+        if (lb_c[q][0] == c[0] && lb_c[q][1] == c[1] && lb_c[q][2] == c[2]) {
+            return q;
+        }
+    }
+    return 0;
+}
+
 /* The directions with component dir (+1 or -1) along axis a, in q order:
  * the 5 that cross a face of a cell. Returns how many. */
 static inline int lb_crossing(int a, int dir, int qs[5])

@@ -194,7 +194,8 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         for (int a = 0; a < 3; a++) {
             uw[a] = p->v[a] + wr[a];
         }
-        double cu = lb_cd[q][0] * uw[0] + lb_cd[q][1] * uw[1] + lb_cd[q][2] * uw[2];
+        const double cuw = lb_cd[q][0] * uw[0] + lb_cd[q][1] * uw[1] + lb_cd[q][2] * uw[2];
+        double cu = cuw;
         if (l->have & SPHERES_PINCHED_SPHERE) {
             /* a pair pinched between this sphere's wall (velocity u_A) and
              * sphere m's (u_B, at the point half a link back): each side
@@ -275,7 +276,7 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
              * of an equilibrium at u_w along -c_q), and the mass the link
              * gives beyond bounce-back's flux of the translation (a pinched
              * pair: beyond its own term) */
-            const double share = lb_w[q] * (1.0 - 3.0 * (lb_cd[q][0] * uw[0] + lb_cd[q][1] * uw[1] + lb_cd[q][2] * uw[2]));
+            const double share = lb_w[q] * (1.0 - 3.0 * cuw);
             f_new += give * share;
             const double cv = pinched ? cu : lb_cd[q][0] * p->v[0] + lb_cd[q][1] * p->v[1] + lb_cd[q][2] * p->v[2];
             cl[10] += f_new - f_back + 6.0 * lb_w[q] * rho * cv;

@@ -199,11 +199,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                                 sp[a] = crossed[a] == 0 ? 1 : g->n[a];
                             }
                         }
-                        for (int r = 1; r < LB_Q; r++) {
-                            if (lb_c[r][0] == cm[0] && lb_c[r][1] == cm[1] && lb_c[r][2] == cm[2]) {
-                                sq = r;
-                            }
-                        }
+                        sq = lb_direction(cm);
                         l.kind = LINK_COPY;
                         break;
                     }
@@ -328,11 +324,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                                 xs[b] = xf[b];
                                 int cm[3] = {lb_c[q][0], lb_c[q][1], lb_c[q][2]};
                                 cm[b] = -cm[b];
-                                for (int r = 1; r < LB_Q; r++) {
-                                    if (lb_c[r][0] == cm[0] && lb_c[r][1] == cm[1] && lb_c[r][2] == cm[2]) {
-                                        sq2 = r;
-                                    }
-                                }
+                                sq2 = lb_direction(cm);
                             }
                         }
                         l.kind = LINK_ANTI;
@@ -522,13 +514,15 @@ void walls_halo_end(const walls_t *w, const grid_t *g, const pops_t *p, int a)
     }
 }
 
+/* 1 for a cell a sphere covers now (no flags: no spheres) */
+static inline int solid_cell(const walls_t *w, size_t cell)
+{
+    return w->flags != NULL && (cellflags_get(w->flags, cell) & FLAG_SOLID) != 0;
+}
+
 /* 1 for a bounce link whose pair is pinched: the cell's neighbour away from
  * the wall along c_q is a sphere's (walls.h ghost_link_t.pinch) */
-static inline int pinched(const walls_t *w, const ghost_link_t *l)
-{
-    return l->pinch && w->flags != NULL &&
-           (cellflags_get(w->flags, l->cell3) & FLAG_SOLID) != 0;
-}
+static inline int pinched(const walls_t *w, const ghost_link_t *l) { return l->pinch && solid_cell(w, l->cell3); }
 
 void walls_fill(const walls_t *w, const grid_t *g, const pops_t *p)
 {
@@ -619,8 +613,8 @@ static inline __attribute__((always_inline)) void prepare_links(const walls_t *w
              * the ghost's equilibrium shifted to the density 2 rho_w - rho_f */
             double r1, u1[3];
             moments(p, l->cell, &r1, u1);
-            const int solid = w->flags != NULL && (cellflags_get(w->flags, l->cell2) & FLAG_SOLID) != 0;
-            w->pre[i].v[0] = l->pinch || solid ? pops_post(p, l->q, l->cell) : pops_post(p, l->axis, l->cell2);
+            w->pre[i].v[0] =
+                l->pinch || solid_cell(w, l->cell2) ? pops_post(p, l->q, l->cell) : pops_post(p, l->axis, l->cell2);
             w->pre[i].v[1] =
                 lb_feq(l->q, 2.0 * l->coef - r1, u1[0], u1[1], u1[2]) - lb_feq(l->q, r1, u1[0], u1[1], u1[2]);
         }
@@ -649,11 +643,10 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
     const ptrdiff_t l0 = part == WALLS_LATE ? (ptrdiff_t)w->nlinks_early : 0;
     const ptrdiff_t n = part == WALLS_EARLY ? (ptrdiff_t)w->nlinks_early : (ptrdiff_t)w->nlinks;
     const copy_link_t *restrict cp = w->copies;
-    const uint8_t *flags = w->flags;
 #pragma omp for schedule(static) nowait
     for (ptrdiff_t i = c0; i < nc; i++) {
         const size_t dst = pops_in_slot(p, cp[i].q, cp[i].cell);
-        if (flags != NULL && (cellflags_get(flags, cp[i].src) & FLAG_SOLID) != 0) {
+        if (solid_cell(w, cp[i].src)) {
             /* The mirrored source lies inside a sphere that nearly touches
              * the face (a gap below half a cell): what it holds is no fluid
              * value (in place the update skips it, kernel_skip.c), and the
@@ -678,23 +671,23 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
     for (ptrdiff_t i = l0; i < n; i++) {
         const ghost_link_t *l = &w->links[i];
         const size_t dst = pops_in_slot(p, l->q, l->cell);
-        double bounced = pops_post(p, lb_opposite(l->q), l->cell);
-        if (l->kind == LINK_BOUNCE && pinched(w, l)) {
-            /* a pinched pair: the cell lies between this wall and a sphere
-             * along c_q, so both its populations along that line are sent
-             * back by walls. Each wall (here, and the sphere's link:
-             * sphere_fill.c) sends back the mean of the two instead of the
-             * one that reached it, with its whole moving-wall term: the
-             * pair keeps its mass as with bounce-back, which swaps the two
-             * each step and keeps their difference for ever (a momentum
-             * that no collision damps, as the cell has no fluid neighbour
-             * along c_q: README "Touching surfaces") */
-            bounced = 0.5 * (bounced + w->pre[i].v[2]);
-        }
         switch (l->kind) {
         case LINK_COPY:
             break; /* all in w->copies */
         case LINK_BOUNCE: {
+            double bounced = pops_post(p, lb_opposite(l->q), l->cell);
+            if (pinched(w, l)) {
+                /* a pinched pair: the cell lies between this wall and a
+                 * sphere along c_q, so both its populations along that line
+                 * are sent back by walls. Each wall (here, and the sphere's
+                 * link: sphere_fill.c) sends back the mean of the two instead
+                 * of the one that reached it, with its whole moving-wall
+                 * term: the pair keeps its mass as with bounce-back, which
+                 * swaps the two each step and keeps their difference for
+                 * ever (a momentum that no collision damps, as the cell has
+                 * no fluid neighbour along c_q: README "Touching surfaces") */
+                bounced = 0.5 * (bounced + w->pre[i].v[2]);
+            }
             const double v = l->coef != 0.0 || w->kappa != 0.0
                                  ? bounced + l->coef * w->pre[i].v[0] + (w->kappa != 0.0 ? w->pre[i].v[1] : 0.0)
                                  : bounced;
@@ -703,7 +696,7 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
         }
         case LINK_ANTI: {
             double src = w->pre[i].v[0];
-            if (l->pinch && (flags == NULL || (cellflags_get(flags, l->cell2) & FLAG_SOLID) == 0)) {
+            if (l->pinch && !solid_cell(w, l->cell2)) {
                 src = pops_read(p, l->q, pops_in_slot(p, l->q, l->cell3)); /* x_s on another rank */
             }
             pops_write(p, l->q, dst, src + w->pre[i].v[1]);

@@ -75,15 +75,6 @@ static status_t oom(const log_t *log, const char *what, size_t bytes)
     return log_msg(log, STATUS_FATAL, "rigid", "out of memory for %s (%zu bytes)", what, bytes);
 }
 
-static int free_bodies(const scene_t *s)
-{
-    int n = 0;
-    for (int b = 0; b < s->nbodies; b++) {
-        n += s->bodies[b].motion == MOTION_FREE;
-    }
-    return n;
-}
-
 static status_t add_vector(fmi_vars_t *vs, fmi_causality_t causality, int what, const char *kind, int index,
                            const char *quantity, const char *unit, const char *desc, const log_t *log)
 {
@@ -106,7 +97,7 @@ static status_t rigid_variables(const scene_t *s, const log_t *log, fmi_vars_t *
     status_t st = STATUS_OK;
     const double inf = INFINITY;
     *out = vs;
-    if (free_bodies(s) == 0) {
+    if (scene_free_bodies(s) == 0) {
         return STATUS_DISCARD; /* the caller says what it means for it */
     }
     for (int a = 0; a < 3; a++) {
