@@ -57,6 +57,64 @@ static void inlet_velocity(const scene_t *s, const decomp_t *d, const units_t *u
     }
 }
 
+/* Walls that move along themselves let no mass through, but where one
+ * slides into another (a driven lid meeting a side wall) the links of the
+ * cell at their edge come from walls of different velocities, and their
+ * terms 6 w_q rho c_q.u_w no longer cancel: bounce-back with Ladd's term then
+ * puts mass in at the downstream edge and takes it out at the upstream one,
+ * each times its own density, so a lid-driven cavity gained mass without end
+ * (1.2e-4 of it in 20 000 steps at 32^3, U 0.005, the higher pressure of the
+ * downstream corner winning). Such a cell's sum s of the coefficients of its
+ * wall links (not an inlet's, whose flux is meant) is taken off them in
+ * proportion to their weights, coef_q -= s w_q / sum w: its links put no mass
+ * in, whatever its density. Cells of one wall (every link's velocity the
+ * same tangential one) have s = 0 and are left as they are. */
+static void balance_cell(ghost_link_t *l, size_t n, const int flux[LB_Q])
+{
+    /* The slip correction's terms 6 w_q rho c_q.u_k (u_k tangential to the
+     * link's wall) cancel in pairs of links mirrored along the wall; where
+     * the mirror of a link went to the other wall of an edge, or to no
+     * correction, the term stands alone and moves mass (a driven lid at
+     * Lambda 1/4: 2e-7 of the cavity's mass in 5000 steps): it is left out. */
+    int unpaired[LB_Q] = {0};
+    for (size_t i = 0; i < n; i++) {
+        if (l[i].kind != LINK_BOUNCE || l[i].cell2 == l[i].cell) {
+            continue;
+        }
+        int cm[3];
+        for (int a = 0; a < 3; a++) {
+            cm[a] = a == l[i].axis ? lb_c[l[i].q][a] : -lb_c[l[i].q][a];
+        }
+        const int mq = lb_direction(cm);
+        int found = mq == l[i].q;
+        for (size_t j = 0; j < n && !found; j++) {
+            found = l[j].q == mq && l[j].kind == LINK_BOUNCE && l[j].axis == l[i].axis && l[j].cell2 != l[j].cell;
+        }
+        unpaired[l[i].q] = !found;
+    }
+    for (size_t i = 0; i < n; i++) {
+        if (unpaired[l[i].q]) {
+            l[i].cell2 = l[i].cell;
+        }
+    }
+    double s = 0.0, wsum = 0.0, scale = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        if (l[i].kind == LINK_BOUNCE && !flux[l[i].q]) {
+            s += l[i].coef;
+            wsum += lb_w[l[i].q];
+            scale += fabs(l[i].coef);
+        }
+    }
+    if (wsum == 0.0 || fabs(s) <= 1e-14 * scale) {
+        return;
+    }
+    for (size_t i = 0; i < n; i++) {
+        if (l[i].kind == LINK_BOUNCE && !flux[l[i].q]) {
+            l[i].coef -= s * lb_w[l[i].q] / wsum;
+        }
+    }
+}
+
 static status_t push(walls_t *w, size_t *cap, const ghost_link_t *l, const log_t *log)
 {
     if (w->nlinks == *cap) {
@@ -157,6 +215,8 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                     continue;
                 }
                 const int xf[3] = {x, y, z};
+                const size_t first = w->nlinks;
+                int flux[LB_Q] = {0}; /* a bounce link that carries an inlet's velocity */
                 for (int q = 1; q < LB_Q; q++) {
                     int sp[3], crossed[3] = {-1, -1, -1};
                     int best = -1, any = 0;
@@ -243,6 +303,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                             for (int a = 0; a < 3; a++) {
                                 uw[a] = uin[a] / ninlets;
                             }
+                            flux[q] = 1;
                         } else if (face->type == FACE_MOVING_WALL) {
                             /* a link through an edge (or corner) of two (three)
                              * moving walls: the mean of their velocities. It
@@ -348,6 +409,7 @@ status_t walls_build(walls_t *w, const grid_t *g, const scene_t *s, const units_
                         return STATUS_ERROR;
                     }
                 }
+                balance_cell(w->links + first, w->nlinks - first, flux);
             }
         }
     }
