@@ -438,7 +438,10 @@ int run_scene(const scene_t *scene, const run_options_t *opt, const log_t *log)
             struct stat sb;
             if (replaced[k][0] != '\0' && stat(replaced[k], &sb) == 0 && S_ISREG(sb.st_mode) &&
                 (opt->restart == NULL || !same_file(replaced[k], opt->restart))) {
-                need.replaced += (double)sb.st_size;
+                /* what replacing it frees: its blocks, not its length (a
+                 * sparse file of 1 GB in 16 MB of disk let a run start that
+                 * then filled the disk) */
+                need.replaced += (double)sb.st_blocks * 512.0;
             }
         }
         if (nst != STATUS_OK || resources_compare(&need, folder, STATUS_ERROR, log) > 0) {

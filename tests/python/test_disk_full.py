@@ -238,3 +238,26 @@ def test_checkpoint_on_a_disk_that_fills_during_the_run(small_disk, tmp_path):
     with h5py.File(cp, "r") as f:
         assert f.attrs["step"] >= 2000 and f["fluid_state/0"].shape[0] > 0
     kept_rows(err, small_disk / "o.h5")
+
+
+def test_a_sparse_file_the_run_replaces_frees_its_blocks_not_its_length(coupler, small_disk, tmp_path):
+    """The space a run counts as freed by the files it replaces is what they
+    take on disk: an old output that is a sparse file of 1 GB (no blocks)
+    frees nothing, so a run needing more than the 16 MiB disk is refused
+    before it writes, and the old file is left as it was. Its length was
+    counted: the run started, truncated the file and filled the disk."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text(SCENE.format(motion="\n    motion: fixed", end="1.5e-3"))
+    p = run("check", scene)
+    need = float(re.search(r"([0-9.e+-]+) MB on disk", p.stdout + p.stderr).group(1)) * 1e6
+    v = os.statvfs(small_disk)
+    assert v.f_bavail * v.f_frsize < need < 1e9
+    out = small_disk / "o.h5"
+    with open(out, "wb") as f:
+        f.truncate(1 << 30)
+    assert os.stat(out).st_blocks == 0
+    p = run("run", scene, "-o", out, "--quiet")
+    assert p.returncode == 1, p.stderr
+    assert "not run, nothing written" in p.stderr, p.stderr
+    assert "No space left on device" not in p.stderr
+    assert os.stat(out).st_size == 1 << 30 and not (small_disk / "o_fields.h5").exists()
