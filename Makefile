@@ -33,7 +33,8 @@ SCENE    ?= models/sinking_sphere.yaml
 COMMON_SRC  := common/status.c common/initial_profile.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
                common/scene_build.c common/scene_check.c common/coupling.c common/big_alloc.c common/file_held.c
 FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/kernel.c fluid/kernel_single.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
-               fluid/spheres.c fluid/sphere_links.c fluid/sphere_others.c fluid/sphere_fill.c fluid/state.c fluid/fluid.c fluid/step.c fluid/kernel_skip.c fluid/diagnostics.c fluid/scan.c
+               fluid/spheres.c fluid/sphere_links.c fluid/sphere_others.c fluid/sphere_fill.c fluid/state.c fluid/fluid.c fluid/step.c fluid/kernel_skip.c fluid/diagnostics.c fluid/scan.c \
+               fluid/moments.c fluid/kernel_moments.c
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \
                rigid/integrator_verlet.c rigid/integrator_cvode.c rigid/connection.c rigid/topology.c rigid/state.c \
                rigid/rigid_scene.c rigid/pairs.c rigid/lubrication.c rigid/contact_watch.c
@@ -41,7 +42,7 @@ RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c 
 MODEL_SRC   := common/fmi_vars.c common/h5fields.c common/h5_cause.c fluid/fluid_fmi.c rigid/rigid_fmi.c
 COUPLER_SRC := coupler/main.c coupler/mpi_env.c coupler/check_ranks.c coupler/bench.c coupler/run.c coupler/signals.c coupler/run_checkpoint.c coupler/fmu.c coupler/output.c coupler/export.c coupler/checkpoint.c coupler/summary.c coupler/resources.c \
                $(MODEL_SRC)
-TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_boundary.c tests/fluid/test_kernel.c tests/fluid/test_layouts.c tests/fluid/test_schedules.c \
+TEST_SRC    := tests/run_tests.c tests/fluid/test_util.c tests/fluid/test_lattice.c tests/fluid/test_boundary.c tests/fluid/test_kernel.c tests/fluid/test_layouts.c tests/fluid/test_moments.c tests/fluid/test_schedules.c \
                tests/fluid/test_flows.c tests/fluid/sphere_harness.c tests/fluid/drag_report.c tests/fluid/test_spheres.c tests/fluid/test_sphere_motion.c \
                tests/fluid/approach_harness.c tests/fluid/test_wall_approach.c tests/common/scene_harness.c tests/common/test_scene.c \
                tests/common/test_scene_refused.c tests/common/test_scene_bad.c tests/common/test_exact_sum.c tests/common/test_h5fields.c tests/common/test_big_alloc.c tests/common/test_fmi_vars.c \

@@ -31,7 +31,9 @@ typedef struct {
     double pressure;         /* pressure_outlet: pressure relative to the reference pressure, Pa */
 } face_t;
 
-typedef enum { COLLISION_BGK, COLLISION_TRT } collision_t;
+/* regularized: BGK on the regularized non-equilibrium part (Latt & Chopard
+ * 2006), with fluid.streaming moments only (fluid/kernel_moments.c) */
+typedef enum { COLLISION_BGK, COLLISION_TRT, COLLISION_REGULARIZED } collision_t;
 typedef enum {
     BOUNDARY_BOUNCE_BACK,
     BOUNDARY_YU,
@@ -42,8 +44,9 @@ typedef enum {
 typedef enum { REFILL_EQUILIBRIUM, REFILL_EXTRAPOLATION } refill_t;
 typedef enum { FORCE_MOMENTUM_EXCHANGE, FORCE_GALILEAN } force_method_t;
 /* Population layout (fluid/layout.h): one array updated in place (the AA
- * pattern) or two arrays, pull from one and write the other. */
-typedef enum { STREAMING_IN_PLACE, STREAMING_TWO_ARRAY } streaming_t;
+ * pattern), two arrays, pull from one and write the other, or the 10
+ * moments of each fluid cell (fluid/moments.h). */
+typedef enum { STREAMING_IN_PLACE, STREAMING_TWO_ARRAY, STREAMING_MOMENTS } streaming_t;
 /* Storage of the populations: double, or float holding f - w_q. */
 typedef enum { PRECISION_DOUBLE, PRECISION_SINGLE } precision_t;
 

@@ -264,6 +264,25 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
     scene_check_range(c, "fluid.magic", f->magic, 0, INFINITY, LO_OPEN);
     /* above Mach 1 the lattice (c = 1 cell per step, c_s = 1/sqrt(3)) cannot carry the flow at all */
     scene_check_range(c, "fluid.mach_limit", f->mach_limit, 0, 1, LO_OPEN);
+    /* the moments layout keeps what a regularized collision leaves, and
+     * only the moments layout has that collision (fluid/kernel_moments.c) */
+    if (f->streaming == STREAMING_MOMENTS && f->collision != COLLISION_REGULARIZED) {
+        scene_report_bad(c, "fluid.collision",
+                         "= %s with fluid.streaming = moments, which stores 10 moments per cell and so only a "
+                         "regularized collision; allowed with it: regularized",
+                         f->collision == COLLISION_BGK ? "bgk" : "trt");
+    } else if (f->collision == COLLISION_REGULARIZED && f->streaming != STREAMING_MOMENTS) {
+        scene_report_bad(c, "fluid.collision",
+                         "= regularized with fluid.streaming = %s; the regularized collision is implemented in the "
+                         "moments layout only: allowed with %s: bgk, trt (or fluid.streaming: moments)",
+                         f->streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place",
+                         f->streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place");
+    }
+    if (f->streaming == STREAMING_MOMENTS && f->precision != PRECISION_DOUBLE) {
+        scene_report_bad(c, "fluid.precision",
+                         "= single with fluid.streaming = moments; allowed with it: double (the moments layout "
+                         "stores doubles)");
+    }
     if (r->magic != NULL && f->collision == COLLISION_BGK) {
         scene_report_warn(c, "fluid.magic", "= %s: ignored with fluid.collision = bgk (used by trt only)",
                           fmt_num(f->magic).s);

@@ -25,7 +25,7 @@ const cyaml_strval_t SCENE_FACE_TYPE_NAMES[] = {
     {"pressure_outlet", FACE_PRESSURE_OUTLET},
 };
 static const cyaml_strval_t PROFILE_NAMES[] = {{"uniform", PROFILE_UNIFORM}, {"parabolic", PROFILE_PARABOLIC}};
-static const cyaml_strval_t COLLISION_NAMES[] = {{"bgk", COLLISION_BGK}, {"trt", COLLISION_TRT}};
+static const cyaml_strval_t COLLISION_NAMES[] = {{"bgk", COLLISION_BGK}, {"trt", COLLISION_TRT}, {"regularized", COLLISION_REGULARIZED}};
 static const cyaml_strval_t BOUNDARY_NAMES[] = {
     {"bounce_back", BOUNDARY_BOUNCE_BACK},
     {"yu", BOUNDARY_YU},
@@ -38,7 +38,8 @@ static const cyaml_strval_t REFILL_NAMES[] = {{"equilibrium", REFILL_EQUILIBRIUM
 static const cyaml_strval_t FORCE_NAMES[] = {{"momentum_exchange", FORCE_MOMENTUM_EXCHANGE},
                                              {"galilean", FORCE_GALILEAN}};
 static const cyaml_strval_t STREAMING_NAMES[] = {{"in_place", STREAMING_IN_PLACE},
-                                                  {"two_array", STREAMING_TWO_ARRAY}};
+                                                  {"two_array", STREAMING_TWO_ARRAY},
+                                                  {"moments", STREAMING_MOMENTS}};
 static const cyaml_strval_t PRECISION_NAMES[] = {{"double", PRECISION_DOUBLE}, {"single", PRECISION_SINGLE}};
 static const cyaml_strval_t INITIAL_NAMES[] = {{"uniform", INITIAL_UNIFORM},
                                                 {"plane_channel", INITIAL_PLANE_CHANNEL}};

@@ -130,7 +130,8 @@ static void check_step_ns(const scene_t *s, const units_t *u, const log_t *log)
     } else {
         printf("  dt                 %.6g s = %.12g ns (not a whole number of ns)\n", u->dt, f->dt * 1e9);
     }
-    printf("  tau                %.6g (%s)\n", u->tau, f->collision == COLLISION_TRT ? "TRT" : "BGK");
+    printf("  tau                %.6g (%s)\n", u->tau,
+           f->collision == COLLISION_TRT ? "TRT" : f->collision == COLLISION_REGULARIZED ? "regularized BGK" : "BGK");
     if (f->tau_requested > 0.0 && f->tau != f->tau_requested) {
         printf("  tau requested      %.9g (used %.9g, relative change %+.3g: dt rounded to whole ns)\n",
                f->tau_requested, f->tau, (f->tau - f->tau_requested) / f->tau_requested);
@@ -211,16 +212,21 @@ static int cmd_check(const scene_t *s, int world, const log_t *log)
     }
     printf("  steps              %ld to t = %.6g s\n", a.steps, s->run.end_time);
     const double interior = (double)u.n[0] * u.n[1] * u.n[2];
+    const char *layout = s->fluid.streaming == STREAMING_TWO_ARRAY ? "two_array"
+                         : s->fluid.streaming == STREAMING_MOMENTS ? "moments"
+                                                                   : "in_place";
     printf("  memory             %.4g MB (fluid.streaming %s: %.1f bytes per allocated cell, %.1f per interior cell "
-           "with the ghost layers)\n",
-           a.bytes / 1e6, s->fluid.streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place", units_bytes_per_cell(s),
-           a.bytes / interior);
+           "with the ghost layers%s)\n",
+           a.bytes / 1e6, layout, units_bytes_per_cell(s), a.bytes / interior,
+           s->fluid.streaming == STREAMING_MOMENTS ? ", the side store of 19 doubles per ghost cell and per cell "
+                                                     "inside a sphere, and the kernel's plane copies"
+                                                   : "");
     resources_need_t need;
     if (resources_need(s, (double)a.steps * u.dt, 0, log, &need) == STATUS_OK) {
         printf("  run needs          %.4g MB of memory; %.4g MB on disk (output %.4g MB, field snapshots %.4g MB), "
                "a checkpoint %.4g MB more\n",
                need.memory / 1e6, need.disk / 1e6, need.output / 1e6, need.fields / 1e6,
-               (need.grid_cells * units_bytes_per_cell(s) + need.output) / 1e6);
+               (need.grid_cells * units_bytes_per_cell(s) + need.output) / 1e6); /* (moments: the side store not counted) */
         /* the default output goes to the current folder */
         resources_compare(&need, ".", STATUS_WARNING, log);
     }

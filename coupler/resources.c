@@ -14,6 +14,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <omp.h>
 #include <sys/statvfs.h>
 
 #define CAT "resources"
@@ -35,7 +36,7 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
     const double interior = (double)u.n[0] * u.n[1] * u.n[2];
     need->grid_cells = (double)g.ncells;
     need->cell_bytes = units_bytes_per_cell(s);
-    const double grid = need->grid_cells * need->cell_bytes;
+    const double grid = need->grid_cells * need->cell_bytes + units_extra_bytes(s, &g, omp_get_max_threads());
     const double slab = (double)u.n[0] * u.n[1] * h5fields_slab_planes(u.n[0], u.n[1], u.n[2]);
     need->memory = grid + (s->run.fields ? slab * FIELD_BYTES_PER_CELL : 0.0); /* buffers only with fields */
     /* the time series as the run lays them out (run.c): connections and

@@ -49,6 +49,14 @@ static void init_uniform(fluid_t *fl, double rho, const double u[3])
     for (int q = 0; q < LB_Q; q++) {
         feq[q] = lb_feq(q, rho, u[0], u[1], u[2]);
     }
+    if (fl->streaming == STREAMING_MOMENTS) {
+        const pops_t p = fluid_pops(fl);
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < g->ncells; i++) {
+            pops_set_post(&p, i, feq);
+        }
+        return;
+    }
     const size_t N = g->stride;
     const size_t plane = (size_t)g->s[0] * (size_t)g->s[1];
     const int swapped = fl->layout == LAYOUT_SWAPPED; /* post_slot(q, x) is slot qbar of x */
@@ -136,10 +144,12 @@ static status_t init_profile(fluid_t *fl, const scene_t *scene, const log_t *log
                 const int X[3] = {x, y, z};
                 const double *v = vals + (size_t)(n >= 0 ? X[n] : 0) * LB_Q;
                 const size_t i = grid_index(g, x, y, z);
-                for (int q = 0; q < LB_Q; q++) {
-                    for (int k = 0; k < fluid_arrays(fl); k++) {
-                        pops_write(&arrays[k], q, pops_post_slot(&arrays[k], q, i), v[q]);
-                    }
+                for (int k = 0; k < fluid_arrays(fl); k++) {
+                    pops_set_post(&arrays[k], i, v);
+                }
+                if (fl->streaming == STREAMING_MOMENTS) {
+                    const pops_t pm = fluid_pops(fl);
+                    pops_set_post(&pm, i, v);
                 }
             }
         }
@@ -182,7 +192,22 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     const char *skip = getenv("AGGLO_SKIP_SOLID");
     fl->skip_on = fl->streaming == STREAMING_IN_PLACE && !(skip != NULL && strcmp(skip, "0") == 0);
     fl->skip.map = -1;
-    fl->layout = fl->streaming == STREAMING_TWO_ARRAY ? LAYOUT_PULL : LAYOUT_SWAPPED;
+    fl->layout = fl->streaming == STREAMING_TWO_ARRAY ? LAYOUT_PULL
+                 : fl->streaming == STREAMING_MOMENTS ? LAYOUT_MOMENTS
+                                                      : LAYOUT_SWAPPED;
+    if (fl->streaming == STREAMING_MOMENTS) {
+        /* its kernel goes over whole planes in z order (kernel_moments.c):
+         * no chunks of planes beside the spheres' stages */
+        fl->sov.mode = SOV_OFF;
+        if (decomp_parallel(&fl->d)) {
+            log_msg(log, STATUS_ERROR, "fluid",
+                    "%s: fluid.streaming = moments runs on one MPI rank only (its halo exchange is not written); "
+                    "allowed on several ranks: in_place, two_array",
+                    fl->path);
+            fluid_free(fl);
+            return STATUS_ERROR;
+        }
+    }
     int have = 1;
     for (int k = 0; k < fluid_arrays(fl); k++) {
         fl->f[k] = alloc_populations(&fl->g, fluid_value_bytes(fl));
@@ -190,15 +215,9 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     }
     fl->flags = calloc(cellflags_bytes(fl->g.ncells), 1);
     if (fl->path == NULL || !have || fl->flags == NULL) {
-        log_msg(log, STATUS_ERROR, "fluid",
-                "%s: out of memory for the populations and flags of %d x %d x %d cells (%.4g GB: %d array(s) of "
-                "%.4g GB and the flags)",
-                fl->path, fl->g.n[0], fl->g.n[1], fl->g.n[2], (double)fl->g.ncells * units_bytes_per_cell(scene) / 1e9,
-                fluid_arrays(fl), (double)fl->g.ncells * LB_Q * fluid_value_bytes(fl) / 1e9);
-        fluid_free(fl);
-        return STATUS_ERROR;
+        have = 0;
     }
-    for (int z = 0; z < fl->g.s[2]; z++) {
+    for (int z = 0; z < fl->g.s[2] && have; z++) {
         for (int y = 0; y < fl->g.s[1]; y++) {
             for (int x = 0; x < fl->g.s[0]; x++) {
                 /* a ghost cell beyond faces to other ranks only is their fluid */
@@ -212,6 +231,18 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
                 cellflags_set(fl->flags, grid_index(&fl->g, x, y, z), ghost ? CELL_GHOST : CELL_FLUID);
             }
         }
+    }
+    if (have && fl->streaming == STREAMING_MOMENTS) {
+        have = moments_create(&fl->mom, &fl->g, fl->flags);
+    }
+    if (!have) {
+        log_msg(log, STATUS_ERROR, "fluid",
+                "%s: out of memory for the populations and flags of %d x %d x %d cells (%.4g GB: %d array(s) of "
+                "%.4g GB and the flags)",
+                fl->path, fl->g.n[0], fl->g.n[1], fl->g.n[2], (double)fl->g.ncells * units_bytes_per_cell(scene) / 1e9,
+                fluid_arrays(fl), (double)fl->g.ncells * LB_Q * fluid_value_bytes(fl) / 1e9);
+        fluid_free(fl);
+        return STATUS_ERROR;
     }
     const double uv = units_velocity(&fl->units);
     const double u0[3] = {scene->fluid.initial_velocity[0] / uv, scene->fluid.initial_velocity[1] / uv,
@@ -230,6 +261,10 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     if (st == STATUS_OK) {
         const pops_t p = fluid_pops(fl);
         st = spheres_map(&fl->spheres, &fl->g, fl->flags, &p, log);
+    }
+    if (st == STATUS_OK && fl->streaming == STREAMING_MOMENTS && !moments_sync(&fl->mom, &fl->g, &fl->spheres)) {
+        st = log_msg(log, STATUS_ERROR, "fluid", "%s: out of memory for the side store of the cells inside the spheres",
+                     fl->path);
     }
     if (st != STATUS_OK) {
         fluid_free(fl);
@@ -255,6 +290,7 @@ void fluid_free(fluid_t *fl)
     free(fl->flags);
     free(fl->f[1]);
     free(fl->f[0]);
+    moments_free(&fl->mom);
     free(fl->path);
     free(fl);
 }
@@ -450,6 +486,7 @@ void fluid_decomposition(const fluid_t *fl, fluid_decomposition_t *out)
 size_t fluid_memory_bytes(const fluid_t *fl)
 {
     return (size_t)fluid_arrays(fl) * (size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl) +
+           (fl->streaming == STREAMING_MOMENTS ? moments_bytes(&fl->mom, &fl->g) : 0) +
            cellflags_bytes(fl->g.ncells) + fl->walls.nlinks * sizeof(ghost_link_t) + fl->walls.ncopies * sizeof(copy_link_t) +
            sizeof *fl;
 }
@@ -501,9 +538,11 @@ void fluid_set_equilibrium_lattice(fluid_t *fl, const double *rho, const double 
                 const double r = rho != NULL ? rho[o] : 1.0;
                 const double ux = u != NULL ? u[3 * o] : 0.0, uy = u != NULL ? u[3 * o + 1] : 0.0,
                              uz = u != NULL ? u[3 * o + 2] : 0.0;
+                double v[LB_Q];
                 for (int q = 0; q < LB_Q; q++) {
-                    pops_write(&pf, q, pops_post_slot(&pf, q, i), lb_feq(q, r, ux, uy, uz));
+                    v[q] = lb_feq(q, r, ux, uy, uz);
                 }
+                pops_set_post(&pf, i, v);
             }
         }
     }

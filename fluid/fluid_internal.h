@@ -13,6 +13,7 @@
 #include "decomp.h"
 #include "kernel.h"
 #include "layout.h"
+#include "moments.h"
 #include "spheres.h"
 #include "walls.h"
 
@@ -40,7 +41,8 @@ struct fluid {
     decomp_t d;
     units_t units;
     kernel_params_t kp;
-    void *f[2];           /* two_array: both; in_place: f[0] only (f[1] NULL); double or float */
+    void *f[2];           /* two_array: both; in_place: f[0] only (f[1] NULL); double or float; moments: none */
+    moments_t mom;        /* moments: the store (moments.h) */
     int single;           /* fluid.precision single: float storage of f - w_q (layout.h) */
     int overlap;          /* several ranks: the inner update while the halo is in flight (fluid.c;
                            * AGGLO_OVERLAP=0 turns it off, for comparisons) */
@@ -76,11 +78,15 @@ typedef struct {
     int32_t first;
     int16_t streaming, layout;
     int32_t single, pad;
+    uint64_t nside; /* moments layout: side-store entries in use (moments.h); else 0 */
 } fluid_state_header_t;
 
 /* The populations of f[cur] with the maps of its layout state. */
 static inline pops_t fluid_pops(const fluid_t *fl)
 {
+    if (fl->streaming == STREAMING_MOMENTS) {
+        return moments_pops(&fl->mom, &fl->g);
+    }
     pops_t p;
     pops_init(&p, &fl->g, fl->f[fl->cur], fl->single, fl->layout);
     return p;
@@ -119,7 +125,11 @@ static inline __attribute__((always_inline)) void fluid_local_moments(const flui
 void fluid_share_kinematics(fluid_t *fl);
 status_t fluid_watch_period_two(fluid_t *fl);
 
-static inline int fluid_arrays(const fluid_t *fl) { return fl->streaming == STREAMING_TWO_ARRAY ? 2 : 1; }
+/* population arrays of 19 values per cell (none in the moments layout) */
+static inline int fluid_arrays(const fluid_t *fl)
+{
+    return fl->streaming == STREAMING_TWO_ARRAY ? 2 : fl->streaming == STREAMING_MOMENTS ? 0 : 1;
+}
 static inline size_t fluid_value_bytes(const fluid_t *fl) { return fl->single ? sizeof(float) : sizeof(double); }
 
 #endif

@@ -94,11 +94,14 @@ void refill_cell(refill_t kind, spheres_t *sp, const grid_t *g, const uint8_t *f
         neq[q] /= ntied;
     }
     mom[0] = mom[1] = mom[2] = 0.0;
+    double v[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
-        const double v = lb_feq(q, rho, us[0], us[1], us[2]) + neq[q];
-        pops_write(p, q, pops_post_slot(p, q, self), v);
+        v[q] = lb_feq(q, rho, us[0], us[1], us[2]) + neq[q];
         for (int a = 0; a < 3; a++) {
-            mom[a] += lb_c[q][a] * v;
+            mom[a] += lb_c[q][a] * v[q];
         }
     }
+    /* (moments layout: the cell's side-store entry, which moments_sync
+     * turns into its moments after the map) */
+    pops_set_post(p, self, v);
 }

@@ -67,6 +67,19 @@ static inline __attribute__((always_inline)) void load4(const pops_t *pl, size_t
 static inline __attribute__((always_inline)) void span_moments(const pops_t *pl, size_t first, int n, double *rho,
                                                                double *jx, double *jy, double *jz)
 {
+    if (pl->state == LAYOUT_MOMENTS) {
+        /* the moments themselves (ghost and solid cells' terms are
+         * masked by their flags: scan_plane) */
+        const size_t st = pl->n;
+        for (int x = 0; x < n; x++) {
+            const size_t i = first + (size_t)x;
+            rho[x] = pl->m[MOM_RHO * st + i];
+            jx[x] = pl->m[MOM_JX * st + i];
+            jy[x] = pl->m[MOM_JY * st + i];
+            jz[x] = pl->m[MOM_JZ * st + i];
+        }
+        return;
+    }
     size_t s0[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
         s0[q] = pops_post_slot(pl, q, first);

@@ -79,7 +79,8 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
     const char *base = single ? (const char *)f->h : (const char *)f->f;
     const char *pb[LB_Q];
     for (int q = 0; q < LB_Q; q++) {
-        pb[q] = base + esz * pops_post_slot(f, q, 0);
+        /* (the moments layout has no slots of fluid cells: pb unused) */
+        pb[q] = state == LAYOUT_MOMENTS ? base : base + esz * pops_post_slot(f, q, 0);
     }
     size_t cell = (size_t)-1;
     double rho = 0.0, j[3] = {0.0, 0.0, 0.0};
@@ -134,7 +135,7 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
             }
             spheres_rays(dk, qs, nq, p->r, ray);
             n0 = n;
-            if (need_j) {
+            if (need_j || state == LAYOUT_MOMENTS) {
                 rho = pops_moments(f, cell, j);
             } else {
                 /* pops_moments' density: the same sum, in its order */
@@ -148,7 +149,8 @@ static inline __attribute__((always_inline)) void fill_links(spheres_t *sp, cons
         }
         /* the fill waits on memory (the 19 scattered values of a cell's
          * moments): fetch those of the cell FILL_AHEAD links on in advance */
-        if (n + FILL_AHEAD < n_end && list->l[n + FILL_AHEAD].xf != list->l[n + FILL_AHEAD - 1].xf) {
+        if (state != LAYOUT_MOMENTS && n + FILL_AHEAD < n_end &&
+            list->l[n + FILL_AHEAD].xf != list->l[n + FILL_AHEAD - 1].xf) {
             const size_t ahead = list->l[n + FILL_AHEAD].xf * esz;
 #pragma GCC unroll 19
             for (int qq = 0; qq < LB_Q; qq++) {

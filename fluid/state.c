@@ -32,11 +32,26 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define STATE_MAGIC 0x464c5549444c4234ull /* "FLUIDLB4": the cell flags two to a byte (cellflags.h) */
+#define STATE_MAGIC 0x464c5549444c4235ull /* "FLUIDLB5": the cell flags two to a byte (cellflags.h), the side store of the moments layout */
+
+/* The moments layout's part instead of the population arrays: the
+ * moments of every allocated cell, the side-store index and the entries in
+ * use (moments.h). */
+static size_t moments_part(const grid_t *g, size_t nside)
+{
+    return (size_t)MOM_N * g->stride * sizeof(double) + g->ncells * sizeof(int32_t) + nside * LB_Q * sizeof(double);
+}
+
+static const char *streaming_name(streaming_t s)
+{
+    return s == STREAMING_TWO_ARRAY ? "two_array" : s == STREAMING_MOMENTS ? "moments" : "in_place";
+}
 
 size_t fluid_state_size(const fluid_t *fl)
 {
-    return sizeof(fluid_state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.stride * fluid_value_bytes(fl) + cellflags_bytes(fl->g.ncells) +
+    return sizeof(fluid_state_header_t) + (size_t)fluid_arrays(fl) * LB_Q * fl->g.stride * fluid_value_bytes(fl) +
+           (fl->streaming == STREAMING_MOMENTS ? moments_part(&fl->g, fl->mom.nside) : 0) +
+           cellflags_bytes(fl->g.ncells) +
            (size_t)fl->spheres.n * sizeof(sphere_t) + fl->spheres.nsolid * sizeof(size_t) +
            spheres_pairs_bytes(&fl->spheres);
 }
@@ -63,6 +78,7 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
     h.streaming = (int16_t)fl->streaming;
     h.layout = (int16_t)fl->layout;
     h.single = fl->single;
+    h.nside = fl->streaming == STREAMING_MOMENTS ? fl->mom.nside : 0;
     unsigned char *p = buf;
     memcpy(p, &h, sizeof h);
     p += sizeof h;
@@ -70,6 +86,16 @@ status_t fluid_state_save(const fluid_t *fl, void *buf, size_t size)
     for (int k = 0; k < fluid_arrays(fl); k++) {
         memcpy(p, fl->f[k == 0 ? fl->cur : 1 - fl->cur], fbytes);
         p += fbytes;
+    }
+    if (fl->streaming == STREAMING_MOMENTS) {
+        const size_t mb = (size_t)MOM_N * fl->g.stride * sizeof(double), ib = fl->g.ncells * sizeof(int32_t),
+                     sb = fl->mom.nside * LB_Q * sizeof(double);
+        memcpy(p, fl->mom.m, mb);
+        memcpy(p + mb, fl->mom.idx, ib);
+        if (sb > 0) {
+            memcpy(p + mb + ib, fl->mom.side, sb);
+        }
+        p += mb + ib + sb;
     }
     memcpy(p, fl->flags, cellflags_bytes(fl->g.ncells));
     p += cellflags_bytes(fl->g.ncells);
@@ -248,6 +274,26 @@ static status_t check_pairs(const fluid_t *fl, const unsigned char *buf, size_t 
     return STATUS_OK;
 }
 
+/* The moments layout's side-store index: a ghost cell has its own entry
+ * (as this grid gives them), a solid cell one of the others, below nside,
+ * a fluid cell none (-1). */
+static status_t check_index(const fluid_t *fl, const uint8_t *flags, const unsigned char *ibuf, size_t nside)
+{
+    for (size_t i = 0; i < fl->g.ncells; i++) {
+        int32_t e;
+        memcpy(&e, ibuf + i * sizeof e, sizeof e);
+        const unsigned v = cellflags_get(flags, i);
+        const int ok = v == CELL_GHOST   ? e == fl->mom.idx[i]
+                       : v == CELL_SOLID ? e >= 0 && (size_t)e >= fl->mom.nghost && (size_t)e < nside
+                                         : e == -1;
+        if (!ok) {
+            return corrupt(fl, "side-store index: cell %zu (flag %u) has entry %d; allowed: %s", i, v, (int)e,
+                           v == CELL_GHOST ? "its ghost entry" : v == CELL_SOLID ? "a solid cell's entry" : "-1 (fluid)");
+        }
+    }
+    return STATUS_OK;
+}
+
 status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
 {
     fluid_state_header_t h;
@@ -261,14 +307,22 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
         return log_msg(&fl->log, STATUS_ERROR, "fluid",
                        "the state does not belong to this scene (grid %d x %d x %d with %d spheres, fluid.streaming "
                        "%s and fluid.precision %s expected)",
-                       fl->g.n[0], fl->g.n[1], fl->g.n[2], fl->spheres.n,
-                       fl->streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place", fl->single ? "single" : "double");
+                       fl->g.n[0], fl->g.n[1], fl->g.n[2], fl->spheres.n, streaming_name(fl->streaming),
+                       fl->single ? "single" : "double");
     }
-    if (fl->streaming == STREAMING_TWO_ARRAY ? h.layout != LAYOUT_PULL
+    if (fl->streaming == STREAMING_TWO_ARRAY    ? h.layout != LAYOUT_PULL
+        : fl->streaming == STREAMING_MOMENTS ? h.layout != LAYOUT_MOMENTS
                                              : h.layout != LAYOUT_SWAPPED && h.layout != LAYOUT_PUSHED) {
         return corrupt(fl, "layout state %d; allowed with fluid.streaming %s: %s", h.layout,
-                       fl->streaming == STREAMING_TWO_ARRAY ? "two_array" : "in_place",
-                       fl->streaming == STREAMING_TWO_ARRAY ? "0 (pull)" : "1 or 2 (swapped, pushed)");
+                       streaming_name(fl->streaming),
+                       fl->streaming == STREAMING_TWO_ARRAY ? "0 (pull)"
+                       : fl->streaming == STREAMING_MOMENTS ? "3 (moments)"
+                                                            : "1 or 2 (swapped, pushed)");
+    }
+    const int mom = fl->streaming == STREAMING_MOMENTS;
+    if (mom ? h.nside != fl->mom.nghost + h.nsolid : h.nside != 0) {
+        return corrupt(fl, "%llu side-store entries; allowed: %s", (unsigned long long)h.nside,
+                       mom ? "the ghost cells' and one per solid cell" : "0 outside fluid.streaming moments");
     }
     if (h.step < 0 || h.step > STATE_STEP_MAX || h.covered < 0 || h.uncovered < 0 || (h.first != 0 && h.first != 1)) {
         return corrupt(fl, "step %lld (allowed: 0 to 2^53), cells covered %lld and uncovered %lld (>= 0), first map %d "
@@ -279,14 +333,16 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
                        (unsigned long long)h.nsolid, fl->g.ncells);
     }
     const size_t fbytes = (size_t)LB_Q * fl->g.stride * fluid_value_bytes(fl);
-    const size_t need = sizeof h + (size_t)fluid_arrays(fl) * fbytes + cellflags_bytes(fl->g.ncells) + (size_t)h.nspheres * sizeof(sphere_t) +
-                        (size_t)h.nsolid * sizeof(size_t);
+    const size_t mbytes = mom ? moments_part(&fl->g, (size_t)h.nside) : 0;
+    const size_t need = sizeof h + (size_t)fluid_arrays(fl) * fbytes + mbytes + cellflags_bytes(fl->g.ncells) +
+                        (size_t)h.nspheres * sizeof(sphere_t) + (size_t)h.nsolid * sizeof(size_t);
     if (size < need) {
         return log_msg(&fl->log, STATUS_ERROR, "fluid", "state of %zu bytes is shorter than its %zu bytes", size,
                        need);
     }
     const unsigned char *pops = (const unsigned char *)buf + sizeof h;
-    const uint8_t *flags = pops + (size_t)fluid_arrays(fl) * fbytes;
+    const unsigned char *mpart = pops + (size_t)fluid_arrays(fl) * fbytes;
+    const uint8_t *flags = mpart + mbytes;
     const unsigned char *recs = flags + cellflags_bytes(fl->g.ncells);
     const unsigned char *solid = recs + (size_t)h.nspheres * sizeof(sphere_t);
     const unsigned char *pairs = solid + (size_t)h.nsolid * sizeof(size_t);
@@ -306,6 +362,18 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     if (st == STATUS_OK) {
         st = check_pairs(fl, pairs, size - need, h.nspheres);
     }
+    if (st == STATUS_OK && mom) {
+        st = check_index(fl, flags, mpart + (size_t)MOM_N * fl->g.stride * sizeof(double), (size_t)h.nside);
+    }
+    if (st == STATUS_OK && mom && h.nside > fl->mom.cap) {
+        double *ns = realloc(fl->mom.side, (size_t)h.nside * LB_Q * sizeof(double));
+        if (ns == NULL) {
+            return log_msg(&fl->log, STATUS_ERROR, "fluid", "out of memory restoring the side store of %zu cells",
+                           (size_t)h.nside);
+        }
+        fl->mom.side = ns;
+        fl->mom.cap = (size_t)h.nside;
+    }
     if (st != STATUS_OK) {
         return st;
     }
@@ -322,6 +390,15 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     for (int k = 0; k < fluid_arrays(fl); k++) {
         memcpy(fl->f[k == 0 ? fl->cur : 1 - fl->cur], p, fbytes);
         p += fbytes;
+    }
+    if (mom) {
+        const size_t mb = (size_t)MOM_N * fl->g.stride * sizeof(double), ib = fl->g.ncells * sizeof(int32_t);
+        memcpy(fl->mom.m, mpart, mb);
+        memcpy(fl->mom.idx, mpart + mb, ib);
+        if (h.nside > 0) {
+            memcpy(fl->mom.side, mpart + mb + ib, (size_t)h.nside * LB_Q * sizeof(double));
+        }
+        fl->mom.nside = (size_t)h.nside;
     }
     fl->layout = (layout_state_t)h.layout;
     memcpy(fl->flags, flags, cellflags_bytes(fl->g.ncells));
@@ -340,5 +417,8 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     fl->spheres.first = h.first;
     fl->spheres.stale = 1; /* links are not saved: the next map stage builds them */
     fl->step = h.step;
+    if (mom) {
+        fl->mom.map = fl->spheres.maps; /* the entries are those of the restored solid list */
+    }
     return STATUS_OK;
 }

@@ -16,6 +16,7 @@
  * what pays depends on the machine, the threads and the scene. */
 #include "fluid_internal.h"
 
+#include <assert.h>
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
@@ -27,6 +28,7 @@ static void update(fluid_t *fl, const kernel_box_t *b, int skip)
 {
     kernel_params_t kp = fl->kp;
     kp.skip = skip && fl->skip_on && fl->skip.map == fl->spheres.maps ? &fl->skip : NULL;
+    assert(fl->streaming != STREAMING_MOMENTS); /* its own update over whole planes: fluid_step */
     if (fl->streaming == STREAMING_TWO_ARRAY) {
         if (fl->single) {
             kernel_stream_collide_f32(&fl->g, &kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
@@ -337,6 +339,11 @@ status_t fluid_step(fluid_t *fl)
                 return st;
             }
             skip_refresh(fl);
+            if (fl->streaming == STREAMING_MOMENTS && !moments_sync(&fl->mom, &fl->g, &fl->spheres)) {
+                return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                               "%s: out of memory for the side store of the %zu cells inside the spheres (%zu bytes)",
+                               fl->path, fl->spheres.nsolid, fl->spheres.nsolid * LB_Q * sizeof(double));
+            }
         }
         int exchanged = 0;
         for (int a = 1; a < 3; a++) {
@@ -352,7 +359,16 @@ status_t fluid_step(fluid_t *fl)
             if (spheres) {
                 spheres_fill(&fl->spheres, &p, SPHERES_ALL);
             }
-            update(fl, NULL, 1);
+            if (fl->streaming == STREAMING_MOMENTS) {
+                if (!kernel_moments(&fl->g, &fl->kp, &fl->mom)) {
+                    return log_msg(&fl->log, STATUS_ERROR, "fluid",
+                                   "%s: out of memory for the moments kernel's plane copies (%zu bytes per thread)",
+                                   fl->path, (size_t)3 * MOM_N * (size_t)fl->g.s[0] * (size_t)fl->g.s[1] *
+                                                 sizeof(double));
+                }
+            } else {
+                update(fl, NULL, 1);
+            }
         }
     }
     if (spheres) {
@@ -360,6 +376,8 @@ status_t fluid_step(fluid_t *fl)
     }
     if (fl->streaming == STREAMING_TWO_ARRAY) {
         fl->cur = 1 - fl->cur;
+    } else if (fl->streaming == STREAMING_MOMENTS) {
+        /* in place, and the same layout state every step */
     } else {
         fl->layout = fl->layout == LAYOUT_SWAPPED ? LAYOUT_PUSHED : LAYOUT_SWAPPED;
     }

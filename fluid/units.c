@@ -4,8 +4,10 @@
 #include "grid.h"
 #include "kernel.h"
 #include "lattice.h"
+#include "layout.h"
 
 #include <math.h>
+#include <omp.h>
 
 status_t units_derive(const scene_t *s, const log_t *log, units_t *u)
 {
@@ -50,9 +52,34 @@ status_t units_derive(const scene_t *s, const log_t *log, units_t *u)
 
 double units_bytes_per_cell(const scene_t *s)
 {
+    if (s->fluid.streaming == STREAMING_MOMENTS) {
+        /* 10 moments, the side-store index and the flags (moments.h); the
+         * side store itself: units_extra_bytes */
+        return MOM_N * sizeof(double) + sizeof(int32_t) + 0.5;
+    }
     const double arrays = s->fluid.streaming == STREAMING_TWO_ARRAY ? 2.0 : 1.0;
     const double bytes = s->fluid.precision == PRECISION_SINGLE ? sizeof(float) : sizeof(double);
     return arrays * LB_Q * bytes + 0.5; /* and the flags, two cells to a byte (cellflags.h) */
+}
+
+double units_extra_bytes(const scene_t *s, const grid_t *g, int threads)
+{
+    if (s->fluid.streaming != STREAMING_MOMENTS) {
+        return 0.0;
+    }
+    /* every ghost cell and every cell inside a sphere (its volume in cells,
+     * the spheres apart), 19 doubles each, with the store's slack (an
+     * eighth: moments_sync); three planes of moments per thread */
+    const double ghosts = (double)g->ncells - (double)g->n[0] * g->n[1] * g->n[2];
+    double solid = 0.0;
+    for (int i = 0; i < s->nbodies; i++) {
+        for (int k = 0; k < s->bodies[i].nspheres; k++) {
+            const double r = s->bodies[i].spheres[k].radius / s->fluid.dx;
+            solid += 4.0 / 3.0 * 3.14159265358979323846 * r * r * r;
+        }
+    }
+    return ghosts * LB_Q * sizeof(double) + 1.125 * solid * LB_Q * sizeof(double) +
+           3.0 * threads * MOM_N * sizeof(double) * g->s[0] * g->s[1];
 }
 
 int units_grid_align(const scene_t *s) { return s->fluid.streaming == STREAMING_TWO_ARRAY ? GRID_ALIGN : 1; }
@@ -153,7 +180,7 @@ void units_assess(const scene_t *s, const units_t *u, const log_t *log, units_as
     a->steps = (long)ceil(s->run.end_time / u->dt - 1e-9);
     grid_t gr;
     grid_init(&gr, u->n, units_grid_align(s));
-    a->bytes = (double)gr.ncells * units_bytes_per_cell(s);
+    a->bytes = (double)gr.ncells * units_bytes_per_cell(s) + units_extra_bytes(s, &gr, omp_get_max_threads());
 
     if (a->mach > 0.1) {
         log_msg(log, STATUS_WARNING, "units",

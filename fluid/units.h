@@ -11,6 +11,7 @@
 #define FLUID_UNITS_H
 
 #include "../common/scene.h"
+#include "grid.h"
 
 typedef struct {
     int n[3];        /* cells per axis */
@@ -53,5 +54,9 @@ double units_bytes_per_cell(const scene_t *s);
 /* The multiple of cells the grid's x extent is padded to (grid_init):
  * GRID_ALIGN with two arrays, 1 in place. */
 int units_grid_align(const scene_t *s);
+/* Bytes beyond those per cell: in the moments layout the side store of the
+ * ghost cells and of the cells inside the spheres (at their volume), and
+ * the kernel's plane copies for threads threads; 0 in the other layouts. */
+double units_extra_bytes(const scene_t *s, const grid_t *g, int threads);
 
 #endif

@@ -462,6 +462,31 @@ static void periodic_axis(const grid_t *g, const pops_t *p, int a, const int lo[
 {
     const int push = p->state == LAYOUT_PUSHED, n = g->n[a];
     int qs[5], nq = 0;
+    if (p->state == LAYOUT_MOMENTS) {
+        /* the ghost's side-store slot q receives f~_q of the cell it wraps
+         * to (rebuilt from its moments, or a ghost of an axis done before) */
+        for (int side = 0; side < 2; side++) {
+            nq = lb_crossing(a, side == 0 ? 1 : -1, qs);
+            const int ghost = side == 0 ? 0 : n + 1, wrapped = side == 0 ? n : 1;
+            const int b = (a + 1) % 3, c = (a + 2) % 3;
+#pragma omp parallel for collapse(2) schedule(static)
+            for (int j = lo[c]; j <= hi[c]; j++) {
+                for (int i = lo[b]; i <= hi[b]; i++) {
+                    int X[3];
+                    X[a] = ghost;
+                    X[b] = i;
+                    X[c] = j;
+                    const size_t gi = grid_index(g, X[0], X[1], X[2]);
+                    X[a] = wrapped;
+                    const size_t wi = grid_index(g, X[0], X[1], X[2]);
+                    for (int k = 0; k < nq; k++) {
+                        pops_copy_post(p, pops_post_slot(p, qs[k], gi), qs[k], wi);
+                    }
+                }
+            }
+        }
+        return;
+    }
     for (int side = 0; side < 2; side++) {
         /* ghost at coordinate 0 (side 0) or n + 1 (side 1); its directions */
         nq = lb_crossing(a, push ? (side == 0 ? -1 : 1) : (side == 0 ? 1 : -1), qs);
@@ -723,10 +748,10 @@ static inline __attribute__((always_inline)) void fill_links(const walls_t *w, c
              * from a free-slip floor had a drag that changed by 5% with
              * AGGLO_SKIP_SOLID, and NaN in the solid cells reached the
              * whole flow (CUnit layouts). */
-            pops_copy(p, dst, pops_post_slot(p, lb_opposite(cp[i].q), cp[i].cell));
+            pops_copy_post(p, dst, lb_opposite(cp[i].q), cp[i].cell);
         } else {
             /* the mirrored direction has the same weight */
-            pops_copy(p, dst, pops_post_slot(p, cp[i].sq, cp[i].src));
+            pops_copy_post(p, dst, cp[i].sq, cp[i].src);
         }
     }
 #pragma omp for schedule(static)

@@ -7,6 +7,7 @@ void lattice_register_tests(void);
 void boundary_register_tests(void);
 void kernel_register_tests(void);
 void layouts_register_tests(void);
+void moments_register_tests(void);
 void schedules_register_tests(void);
 void flows_register_tests(int validate);
 void spheres_register_tests(int validate);

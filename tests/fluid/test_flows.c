@@ -956,6 +956,7 @@ void fluid_register_tests(int validate)
     boundary_register_tests();
     kernel_register_tests();
     layouts_register_tests();
+    moments_register_tests();
     schedules_register_tests();
     flows_register_tests(validate);
     spheres_register_tests(validate);

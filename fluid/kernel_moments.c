@@ -1,0 +1,180 @@
+/* kernel_moments.c — the update of the moments layout (moments.h): fused
+ * pull streaming and regularized BGK collision with Guo forcing, in place on
+ * the 10 moments of each fluid cell.
+ *
+ * Streaming. Cell x pulls f_q = f~_q(x - c_q) of the last step: from the
+ * side store when x - c_q is a ghost or solid cell (the boundary stage wrote
+ * it: walls.c, sphere_fill.c), else rebuilt from that cell's moments,
+ *   f~_q = w_q [rho + 3 c_q.j + 9/2 Q_q : A],  Q_q = c_q c_q - I/3
+ * (layout.h pops_rebuild), the moment representation of Vardhan, Gounley,
+ * Chen, Dolan & Randles, SC'19 (Moment representation in the lattice
+ * Boltzmann method on massively parallel hardware), Eq. 6-8, with the
+ * second moment stored less rho/3 I.
+ *
+ * Collision (regularized BGK: Latt & Chopard, Math. Comput. Simul. 72 (2006)
+ * 165, Eq. 13-16; with Guo, Zheng & Shi, Phys. Rev. E 65 (2002) 046308). Of
+ * the pulled f: rho = sum f, j = sum c f, P = sum c c f; u = (j + F/2)/rho;
+ * Pi_eq = rho/3 I + rho u u. BGK with Guo's source
+ * S_q = w_q [3 (c_q - u).F + 9 (c_q.u)(c_q.F)] = w_q [3 c_q.F + 9/2 Q_q:(uF + Fu)]
+ * gives post-collision moments up to the second
+ *   rho~ = rho,   j~ = j + F,
+ *   Pi~ = Pi_eq + (1 - omega)(P - Pi_eq) + (1 - omega/2)(u F + F u),
+ * and the regularized collision keeps exactly these and drops every higher
+ * (non-hydrodynamic) moment: its f~ is the Hermite expansion to second
+ * order of them, so the stored moments are
+ *   A~ = Pi~ - rho/3 I = rho u u + (1 - omega)(P - rho/3 I - rho u u)
+ *        + (1 - omega/2)(u F + F u).
+ * Density and momentum are those of the other kernels (kernel.c, BGK); the
+ * viscosity is nu = (1/omega - 1/2)/3 as with BGK.
+ *
+ * In place. A cell's neighbours must read its old moments after it has
+ * written its new ones: the planes are updated in z order, each thread over
+ * its own slab of planes, keeping copies of the old moments of the plane
+ * below (z - 1) and of the plane itself (z); the plane above is still old
+ * in m, but for the last plane of a slab, whose upper neighbour is the next
+ * slab's first plane: that one, and the plane below the slab, are copied
+ * before any thread starts (a barrier). Extra memory: three planes of 10
+ * doubles per thread. Cells inside the spheres (solid) are left alone. */
+#include "moments.h"
+
+#include "lattice.h"
+
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void copy_plane(double *restrict dst, const double *restrict m, size_t stride, size_t np, int z)
+{
+    for (int k = 0; k < MOM_N; k++) {
+        memcpy(dst + (size_t)k * np, m + (size_t)k * stride + (size_t)z * np, np * sizeof(double));
+    }
+}
+
+typedef struct {
+    const int32_t *idx;
+    const double *side;
+    ptrdiff_t off[LB_Q];  /* the neighbour at +c_q in the grid */
+    ptrdiff_t poff[LB_Q]; /* and within its plane */
+    size_t np;            /* cells per plane */
+    double om, fx, fy, fz;
+} kctx_t;
+
+/* One cell: i its grid index, pi its index in the plane; lo, mid, hi the
+ * old moments of the planes z - 1, z (copies: moment k of plane cell pi at
+ * k np + pi) and z + 1 (moment k at k hn + pi: a copy, or m itself). */
+static inline __attribute__((always_inline)) void update_cell(const kctx_t *k, const double *lo, const double *mid,
+                                                             const double *hi, size_t hn, size_t i, size_t pi,
+                                                             double *m, size_t stride)
+{
+    double f[LB_Q];
+#pragma GCC unroll 19
+    for (int q = 0; q < LB_Q; q++) {
+        const int32_t e = k->idx[(ptrdiff_t)i - k->off[q]];
+        if (e >= 0) {
+            f[q] = k->side[(size_t)e * LB_Q + (size_t)q];
+        } else {
+            const size_t at = (size_t)((ptrdiff_t)pi - k->poff[q]);
+            f[q] = lb_c[q][2] > 0   ? pops_rebuild(lo, k->np, q, at)
+                   : lb_c[q][2] < 0 ? pops_rebuild(hi, hn, q, at)
+                                    : pops_rebuild(mid, k->np, q, at);
+        }
+    }
+    double rho = 0.0, jx = 0.0, jy = 0.0, jz = 0.0, pxx = 0.0, pyy = 0.0, pzz = 0.0, pxy = 0.0, pxz = 0.0,
+           pyz = 0.0;
+#pragma GCC unroll 19
+    for (int q = 0; q < LB_Q; q++) {
+        const int cx = lb_c[q][0], cy = lb_c[q][1], cz = lb_c[q][2];
+        const double v = f[q];
+        rho += v;
+        LB_ADD(jx, cx, v);
+        LB_ADD(jy, cy, v);
+        LB_ADD(jz, cz, v);
+        LB_ADD(pxx, cx * cx, v);
+        LB_ADD(pyy, cy * cy, v);
+        LB_ADD(pzz, cz * cz, v);
+        LB_ADD(pxy, cx * cy, v);
+        LB_ADD(pxz, cx * cz, v);
+        LB_ADD(pyz, cy * cz, v);
+    }
+    const double fx = k->fx, fy = k->fy, fz = k->fz, om = k->om;
+    const double inv = 1.0 / rho;
+    const double ux = (jx + 0.5 * fx) * inv, uy = (jy + 0.5 * fy) * inv, uz = (jz + 0.5 * fz) * inv;
+    const double r3 = rho / 3.0, keep = 1.0 - om, src = 1.0 - 0.5 * om;
+    const double exx = rho * ux * ux, eyy = rho * uy * uy, ezz = rho * uz * uz;
+    const double exy = rho * ux * uy, exz = rho * ux * uz, eyz = rho * uy * uz;
+    m[MOM_RHO * stride + i] = rho;
+    m[MOM_JX * stride + i] = jx + fx;
+    m[MOM_JY * stride + i] = jy + fy;
+    m[MOM_JZ * stride + i] = jz + fz;
+    m[MOM_AXX * stride + i] = exx + keep * (pxx - r3 - exx) + src * 2.0 * ux * fx;
+    m[MOM_AYY * stride + i] = eyy + keep * (pyy - r3 - eyy) + src * 2.0 * uy * fy;
+    m[MOM_AZZ * stride + i] = ezz + keep * (pzz - r3 - ezz) + src * 2.0 * uz * fz;
+    m[MOM_AXY * stride + i] = exy + keep * (pxy - exy) + src * (ux * fy + uy * fx);
+    m[MOM_AXZ * stride + i] = exz + keep * (pxz - exz) + src * (ux * fz + uz * fx);
+    m[MOM_AYZ * stride + i] = eyz + keep * (pyz - eyz) + src * (uy * fz + uz * fy);
+}
+
+int kernel_moments(const grid_t *g, const kernel_params_t *p, moments_t *ms)
+{
+    const size_t np = (size_t)g->s[0] * (size_t)g->s[1];
+    const int maxt = omp_get_max_threads();
+    if (ms->planes == NULL || ms->nplanes < maxt) {
+        free(ms->planes);
+        ms->nplanes = 0;
+        ms->planes = malloc((size_t)maxt * 3 * MOM_N * np * sizeof(double));
+        if (ms->planes == NULL) {
+            return 0;
+        }
+        ms->nplanes = maxt;
+    }
+    kctx_t k;
+    k.idx = ms->idx;
+    k.side = ms->side;
+    k.np = np;
+    k.om = p->omega_plus;
+    k.fx = p->force[0];
+    k.fy = p->force[1];
+    k.fz = p->force[2];
+    for (int q = 0; q < LB_Q; q++) {
+        k.poff[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], 0);
+        k.off[q] = grid_offset(g, lb_c[q][0], lb_c[q][1], lb_c[q][2]);
+    }
+    double *const m = ms->m;
+    const size_t stride = g->stride;
+    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+    double *const planes = ms->planes;
+#pragma omp parallel num_threads(maxt)
+    {
+        const int nt = omp_get_num_threads(), t = omp_get_thread_num();
+        const int z0 = 1 + nz * t / nt, z1 = nz * (t + 1) / nt;
+        double *prev = planes + (size_t)t * 3 * MOM_N * np, *cur = prev + MOM_N * np, *top = cur + MOM_N * np;
+        if (z0 <= z1) {
+            copy_plane(prev, m, stride, np, z0 - 1);
+            copy_plane(top, m, stride, np, z1 + 1);
+        }
+#pragma omp barrier
+        if (z0 <= z1) {
+            copy_plane(cur, m, stride, np, z0);
+        }
+        for (int z = z0; z <= z1; z++) {
+            /* the plane above: still old in m, but for the slab's last */
+            const double *hi = z == z1 ? top : m + (size_t)(z + 1) * np;
+            const size_t hn = z == z1 ? np : stride;
+            for (int y = 1; y <= ny; y++) {
+                for (int x = 1; x <= nx; x++) {
+                    const size_t pi = (size_t)y * (size_t)g->s[0] + (size_t)x, i = (size_t)z * np + pi;
+                    if (k.idx[i] < 0) {
+                        update_cell(&k, prev, cur, hi, hn, i, pi, m, stride);
+                    }
+                }
+            }
+            double *t2 = prev;
+            prev = cur;
+            cur = t2;
+            if (z < z1) {
+                copy_plane(cur, m, stride, np, z + 1);
+            }
+        }
+    }
+    return 1;
+}
