@@ -244,7 +244,10 @@ static bool build_fluid(ctx_t *c, const raw_fluid_t *r, scene_t *s, bool *dt_ok)
     *dt_ok = false;
     f->density = r->density;
     f->viscosity = r->viscosity;
-    f->collision = r->collision ? *r->collision : COLLISION_TRT;
+    /* (the moments layout's only collision is its default there) */
+    f->collision = r->collision                                             ? *r->collision
+                   : r->streaming != NULL && *r->streaming == STREAMING_MOMENTS ? COLLISION_REGULARIZED
+                                                                             : COLLISION_TRT;
     opt_vec(f->body_force, r->body_force, 0, 0, 0);
     opt_vec(f->initial_velocity, r->initial_velocity, 0, 0, 0);
     f->initial_profile = r->initial_profile ? *r->initial_profile : INITIAL_UNIFORM;

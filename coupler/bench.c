@@ -12,7 +12,9 @@
  * layout (two arrays: the stores are non-temporal, no read-for-ownership;
  * in place: the stores go to lines just read), so the bandwidth limit is
  * B / 304 cell updates per second (B / 152 in single precision); the ratio
- * printed is MLUPS / that limit.
+ * printed is MLUPS / that limit. The moments layout (double only, with its
+ * regularized collision) moves 10 doubles each way and a 4-byte index:
+ * B / 164.
  * Memory: bytes of the fluid component per interior cell, everything
  * included (fluid_memory_bytes). */
 #include "bench.h"
@@ -21,6 +23,7 @@
 #include "../common/scene.h"
 #include "../fluid/fluid.h"
 #include "../fluid/lattice.h"
+#include "../fluid/layout.h"
 #include "run.h"
 
 #include <math.h>
@@ -126,7 +129,7 @@ static double fluid_mlups(int size, int threads, streaming_t streaming, precisio
     s.fluid.dx = 1.0;
     s.fluid.tau = 0.8;
     s.fluid.viscosity = 0.1;
-    s.fluid.collision = COLLISION_TRT;
+    s.fluid.collision = streaming == STREAMING_MOMENTS ? COLLISION_REGULARIZED : COLLISION_TRT;
     s.fluid.magic = 3.0 / 16.0;
     s.fluid.initial_velocity[0] = 0.01;
     s.fluid.body_force[2] = 1e-7;
@@ -190,19 +193,26 @@ int bench_main(const int *sizes, int nsizes, int json)
         printf("%6s %7s %9s %9s %8s %10s %12s %7s %10s\n", "size", "threads", "precision", "streaming", "MLUPS",
                "BW GB/s", "limit MLUPS", "ratio", "bytes/cell");
     }
-    static const streaming_t layouts[] = {STREAMING_IN_PLACE, STREAMING_TWO_ARRAY};
-    static const char *const names[] = {"in_place", "two_array"};
+    static const streaming_t layouts[] = {STREAMING_IN_PLACE, STREAMING_TWO_ARRAY, STREAMING_MOMENTS};
+    static const char *const names[] = {"in_place", "two_array", "moments"};
     static const precision_t precisions[] = {PRECISION_DOUBLE, PRECISION_SINGLE};
     static const char *const pnames[] = {"double", "single"};
     for (int k = 0; k < nsizes; k++) {
         for (int pr = 0; pr < 2; pr++) {
-            for (int l = 0; l < 2; l++) {
+            for (int l = 0; l < 3; l++) {
+                if (layouts[l] == STREAMING_MOMENTS && precisions[pr] != PRECISION_DOUBLE) {
+                    continue; /* double only */
+                }
                 for (int t = 0; t < ntc; t++) {
                     double bpc = 0.0, bwr = 0.0;
                     const double m =
                         fluid_mlups(sizes[k], tcounts[t], layouts[l], precisions[pr], &copy, &bwr, &bpc);
-                    /* 19 loads + 19 stores of a value per cell update */
-                    const double update = 2.0 * LB_Q * (pr == 0 ? sizeof(double) : sizeof(float));
+                    /* 19 loads + 19 stores of a value per cell update; the
+                     * moments layout: 10 of each and its 4-byte index
+                     * (fluid/kernel_moments.c; its plane copies stay in cache) */
+                    const double update = layouts[l] == STREAMING_MOMENTS
+                                              ? 2.0 * MOM_N * sizeof(double) + sizeof(int32_t)
+                                              : 2.0 * LB_Q * (pr == 0 ? sizeof(double) : sizeof(float));
                     const double limit = bwr * 1e9 / update / 1e6;
                     const double ratio = limit > 0.0 ? m / limit : 0.0;
                     if (json) {

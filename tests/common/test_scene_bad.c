@@ -216,7 +216,7 @@ static const bad_scene_t CASES[] = {
      "scene.yaml (--set fluid.mach_limit=1.5): fluid.mach_limit = 1.5: out of range; allowed: (0, 1]"},
     {0, NULL, NULL, {"fluid.collision=lbgk"}, 1,
      "scene.yaml (--set fluid.collision=lbgk): fluid.collision: wrong type or value (libcyaml: Invalid "
-     "ENUM value: lbgk); allowed: one of bgk | trt"},
+     "ENUM value: lbgk); allowed: one of bgk | trt | regularized"},
     {0, NULL, NULL, {"fluid.body_force=[0, 0, -.inf]"}, 1,
      "scene.yaml (--set fluid.body_force=[0, 0, -.inf]): fluid.body_force.2: wrong type or value (libcyaml: "
      "Invalid FLOAT value: -.inf); allowed: a number"},

@@ -117,3 +117,39 @@ def test_fmu_names_the_failed_allocation(coupler, tmp_path, capfd):
     assert "out of memory for the populations and flags of 600000 x 600000 x 600000 cells" in log, log
     # 2.16e17 cells of 152.5 bytes (one in-place array of doubles and the flags): 3.3e10 GB
     assert re.search(r"\(3\.[0-9]+e\+10 GB: 1 array", log), log
+
+
+def test_moments_layout_fits_three_agglomerates_in_320_mb(coupler):
+    # issue 12: three_agglomerates (200 x 112 x 112 = 2.51 M cells) in <= 320 MB in double.
+    # The moments layout (fluid/moments.h): 84.5 bytes per allocated cell (10 doubles, a 4-byte
+    # side-store index, the flags) and 19 doubles per ghost cell and per cell inside a sphere,
+    # and the kernel's plane copies; in place, 152.5 bytes per cell, is 400 MB.
+    scene = MODELS / "three_agglomerates.yaml"
+    p = run("check", scene, "--set", "fluid.streaming=moments", "--set", "fluid.collision=regularized")
+    assert p.returncode == 0, p.stderr
+    m = re.search(r"memory +([0-9.e+]+) MB \(fluid.streaming moments: 84.5 bytes per allocated cell", p.stdout)
+    assert m, p.stdout
+    mb = float(m.group(1))
+    # 2.625 M allocated cells x 84.5 = 221.8 MB; ghosts 116 k x 152 = 17.7 MB; 72 spheres of radius 5
+    # cells 6.4 MB; planes 5.5 MB per thread
+    assert 235 < mb <= 320, mb
+    p = run("check", scene)
+    m = re.search(r"memory +([0-9.e+]+) MB", p.stdout)
+    assert m and float(m.group(1)) > 390, p.stdout
+
+
+def test_moments_layout_refusals(coupler):
+    # the moments layout keeps only what a regularized collision leaves (its default there);
+    # the regularized collision exists in the moments layout only; double only
+    p = run("check", SCENE, "--set", "fluid.streaming=moments")
+    assert p.returncode == 0 and "(regularized BGK)" in p.stdout, p.stderr
+    p = run("check", SCENE, "--set", "fluid.streaming=moments", "--set", "fluid.collision=bgk")
+    assert p.returncode != 0
+    assert "fluid.collision = bgk" in p.stderr and "allowed with it: regularized" in p.stderr, p.stderr
+    p = run("check", SCENE, "--set", "fluid.collision=regularized")
+    assert p.returncode != 0
+    assert "moments layout only" in p.stderr, p.stderr
+    p = run("check", SCENE, "--set", "fluid.streaming=moments", "--set", "fluid.collision=regularized",
+            "--set", "fluid.precision=single")
+    assert p.returncode != 0
+    assert "fluid.precision" in p.stderr and "allowed with it: double" in p.stderr, p.stderr
