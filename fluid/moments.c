@@ -5,16 +5,13 @@
 #include "moments.h"
 
 #include "../common/big_alloc.h"
-#include "cellflags.h"
 #include "lattice.h"
 #include "spheres.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-enum { MOMENTS_CELL_GHOST = 2 }; /* fluid_internal.h CELL_GHOST */
-
-int moments_create(moments_t *ms, const grid_t *g, const uint8_t *flags)
+int moments_create(moments_t *ms, const grid_t *g)
 {
     memset(ms, 0, sizeof *ms);
     ms->map = -1;
@@ -23,27 +20,49 @@ int moments_create(moments_t *ms, const grid_t *g, const uint8_t *flags)
     }
     ms->m = big_alloc((size_t)MOM_N * g->stride * sizeof(double));
     ms->idx = malloc(g->ncells * sizeof *ms->idx);
-    if (ms->m == NULL || ms->idx == NULL) {
+    ms->row_fluid = malloc((size_t)g->s[1] * (size_t)g->s[2]);
+    if (ms->m == NULL || ms->idx == NULL || ms->row_fluid == NULL) {
         return 0;
     }
     memset(ms->m, 0, (size_t)MOM_N * g->stride * sizeof(double));
-    size_t n = 0;
-    for (size_t i = 0; i < g->ncells; i++) {
-        const int ghost = cellflags_get(flags, i) == MOMENTS_CELL_GHOST;
-        ms->idx[i] = ghost ? (int32_t)n : -1;
-        n += (size_t)ghost;
+    size_t n = 0, i = 0;
+    for (int z = 0; z < g->s[2]; z++) {
+        for (int y = 0; y < g->s[1]; y++) {
+            for (int x = 0; x < g->s[0]; x++, i++) {
+                const int ghost = !grid_is_interior(g, x, y, z);
+                ms->idx[i] = ghost ? (int32_t)n : -1;
+                n += (size_t)ghost;
+            }
+        }
     }
     if (n > INT32_MAX / 2) {
         return 0;
     }
     ms->nghost = ms->nside = ms->cap = n;
     ms->side = calloc(n > 0 ? n * LB_Q : 1, sizeof *ms->side);
+    moments_rows(ms, g);
     return ms->side != NULL;
+}
+
+void moments_rows(moments_t *ms, const grid_t *g)
+{
+#pragma omp parallel for schedule(static)
+    for (int z = 0; z < g->s[2]; z++) {
+        for (int y = 0; y < g->s[1]; y++) {
+            const size_t i0 = grid_index(g, 1, y, z);
+            int all = grid_is_interior(g, 1, y, z);
+            for (int x = 0; x < g->n[0] && all; x++) {
+                all = ms->idx[i0 + (size_t)x] < 0;
+            }
+            ms->row_fluid[(size_t)z * (size_t)g->s[1] + (size_t)y] = (uint8_t)all;
+        }
+    }
 }
 
 void moments_free(moments_t *ms)
 {
     free(ms->planes);
+    free(ms->row_fluid);
     free(ms->side);
     free(ms->idx);
     free(ms->m);
@@ -100,7 +119,7 @@ int moments_sync(moments_t *ms, const grid_t *g, const spheres_t *sp)
         const size_t i = sp->solid[j];
         const int32_t e = (int32_t)(ms->nghost + j);
         if (ms->idx[i] >= 0 && (size_t)ms->idx[i] < ms->nghost) {
-            continue; /* a ghost cell keeps its own entry */
+            continue; /* a ghost cell keeps its own entry (on several ranks a sphere may cover one) */
         }
         if (ms->idx[i] < 0) {
             for (int q = 0; q < LB_Q; q++) {
@@ -111,12 +130,13 @@ int moments_sync(moments_t *ms, const grid_t *g, const spheres_t *sp)
     }
     ms->nside = need;
     ms->map = sp->maps;
+    moments_rows(ms, g);
     return 1;
 }
 
 size_t moments_bytes(const moments_t *ms, const grid_t *g)
 {
-    return (size_t)MOM_N * g->stride * sizeof(double) + g->ncells * sizeof(int32_t) +
+    return (size_t)MOM_N * g->stride * sizeof(double) + g->ncells * sizeof(int32_t) + (size_t)g->s[1] * (size_t)g->s[2] +
            ms->cap * LB_Q * sizeof(double) + (size_t)ms->nplanes * 3 * MOM_N * (size_t)g->s[0] * (size_t)g->s[1] *
                                                    sizeof(double);
 }

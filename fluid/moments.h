@@ -10,7 +10,9 @@
  *          (the collision is regularized: kernel_moments.c);
  *   side   19 doubles per ghost or solid cell, f[e * 19 + q] for entry e;
  *   idx    per cell its entry (int32), -1 for a fluid cell. Ghost cells
- *          have the entries 0 .. nghost - 1 for ever (in cell order); the
+ *          (every cell of the ghost layer: beyond a wall, a periodic face or
+ *          another rank's face, whose fluid the halo exchange brings) have
+ *          the entries 0 .. nghost - 1 for ever (in cell order); the
  *          cells inside the spheres nghost + j for the j-th of the spheres'
  *          solid list (spheres_t.solid), reassigned after every map that
  *          moved (moments_sync): a cell a sphere uncovers was refilled into
@@ -41,15 +43,15 @@ typedef struct {
     size_t nside;    /* entries in use: nghost + the solid cells */
     size_t cap;      /* entries allocated */
     long map;        /* the sphere map the solid entries belong to (spheres_t.maps) */
+    uint8_t *row_fluid; /* per row (y, z) of the allocated grid: 1 when its interior cells are all fluid */
     double *planes;  /* the kernel's copies of old planes: 3 per thread */
     int nplanes;     /* threads the planes are allocated for */
 } moments_t;
 
-/* Allocates the store for grid g whose ghost cells are flagged in flags
- * (cellflags.h, CELL_GHOST = 2); every fluid cell's moments are zero and
- * every entry zero until the caller writes them (pops_set_post). 0 when
- * out of memory (then moments_free). */
-int moments_create(moments_t *ms, const grid_t *g, const uint8_t *flags);
+/* Allocates the store for grid g; every interior cell's moments are zero
+ * and every entry zero until the caller writes them (pops_set_post). 0
+ * when out of memory (then moments_free). */
+int moments_create(moments_t *ms, const grid_t *g);
 void moments_free(moments_t *ms);
 
 /* The populations of the store (LAYOUT_MOMENTS). */
@@ -60,6 +62,10 @@ pops_t moments_pops(const moments_t *ms, const grid_t *g);
  * entries, holding the values rebuilt from their last moments. 0 when out
  * of memory for the side store (the store is then as before). */
 int moments_sync(moments_t *ms, const grid_t *g, const struct spheres_s *sp);
+
+/* row_fluid anew from idx (after moments_create, moments_sync and a
+ * restored state). */
+void moments_rows(moments_t *ms, const grid_t *g);
 
 /* Bytes held now (the memory report of a live component). */
 size_t moments_bytes(const moments_t *ms, const grid_t *g);

@@ -274,21 +274,28 @@ static status_t check_pairs(const fluid_t *fl, const unsigned char *buf, size_t 
     return STATUS_OK;
 }
 
-/* The moments layout's side-store index: a ghost cell has its own entry
- * (as this grid gives them), a solid cell one of the others, below nside,
- * a fluid cell none (-1). */
+/* The moments layout's side-store index: a cell of the ghost layer has its
+ * own entry (as this grid gives them), an interior solid cell one of the
+ * others, below nside, an interior fluid cell none (-1). */
 static status_t check_index(const fluid_t *fl, const uint8_t *flags, const unsigned char *ibuf, size_t nside)
 {
-    for (size_t i = 0; i < fl->g.ncells; i++) {
-        int32_t e;
-        memcpy(&e, ibuf + i * sizeof e, sizeof e);
-        const unsigned v = cellflags_get(flags, i);
-        const int ok = v == CELL_GHOST   ? e == fl->mom.idx[i]
-                       : v == CELL_SOLID ? e >= 0 && (size_t)e >= fl->mom.nghost && (size_t)e < nside
-                                         : e == -1;
-        if (!ok) {
-            return corrupt(fl, "side-store index: cell %zu (flag %u) has entry %d; allowed: %s", i, v, (int)e,
-                           v == CELL_GHOST ? "its ghost entry" : v == CELL_SOLID ? "a solid cell's entry" : "-1 (fluid)");
+    const grid_t *g = &fl->g;
+    size_t i = 0;
+    for (int z = 0; z < g->s[2]; z++) {
+        for (int y = 0; y < g->s[1]; y++) {
+            for (int x = 0; x < g->s[0]; x++, i++) {
+                int32_t e;
+                memcpy(&e, ibuf + i * sizeof e, sizeof e);
+                const unsigned v = cellflags_get(flags, i);
+                const int ghost = !grid_is_interior(g, x, y, z);
+                const int ok = ghost              ? e == fl->mom.idx[i]
+                               : v == CELL_SOLID ? e >= 0 && (size_t)e >= fl->mom.nghost && (size_t)e < nside
+                                                 : e == -1;
+                if (!ok) {
+                    return corrupt(fl, "side-store index: cell %zu (flag %u) has entry %d; allowed: %s", i, v, (int)e,
+                                   ghost ? "its ghost entry" : v == CELL_SOLID ? "a solid cell's entry" : "-1 (fluid)");
+                }
+            }
         }
     }
     return STATUS_OK;
@@ -419,6 +426,7 @@ status_t fluid_state_restore(fluid_t *fl, const void *buf, size_t size)
     fl->step = h.step;
     if (mom) {
         fl->mom.map = fl->spheres.maps; /* the entries are those of the restored solid list */
+        moments_rows(&fl->mom, &fl->g);
     }
     return STATUS_OK;
 }
