@@ -117,7 +117,7 @@ status_t check_ranks(const scene_t *s, const int N[3], int world, const log_t *l
            "the block with its ghost layer as grid.h allocates them, and 1 byte of flags per cell; no link lists)\n",
            hi.bytes / 1e6, sum.bytes / world / 1e6,
            s->fluid.streaming == STREAMING_TWO_ARRAY ? "two_array"
-           : s->fluid.streaming == STREAMING_MOMENTS ? "moments (one rank only)"
+           : s->fluid.streaming == STREAMING_MOMENTS ? "moments"
                                                      : "in_place",
            s->fluid.precision == PRECISION_SINGLE ? "single" : "double");
     printf("  halo per step      %.0f B sent by all ranks, at most %.0f B by one; %.3g %% of the populations of the "

@@ -300,6 +300,31 @@ static void layer_copy(const grid_t *g, const pops_t *p, int a, int layer, const
     const int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2, nb = hi[b] - lo[b] + 1, nc = hi[c] - lo[c] + 1;
     const int e[3] = {b == 0, b == 1, b == 2};
     const size_t stride_b = (size_t)grid_offset(g, e[0], e[1], e[2]);
+    if (p->state == LAYOUT_MOMENTS) {
+        /* out: f~_q of my outer layer (rebuilt from a fluid cell's moments);
+         * in: into the side-store slots of my ghost layer (layout.h) */
+        double *restrict bf = (double *)(void *)buf;
+#pragma omp parallel for collapse(2) schedule(static)
+        for (int m = 0; m < nq; m++) {
+            for (int jj = lo[c]; jj <= hi[c]; jj++) {
+                int X[3];
+                X[a] = layer;
+                X[c] = jj;
+                X[b] = lo[b];
+                const size_t i0 = grid_index(g, X[0], X[1], X[2]);
+                size_t k = ((size_t)m * (size_t)nc + (size_t)(jj - lo[c])) * (size_t)nb;
+                for (int ii = 0; ii < nb; ii++, k++) {
+                    const size_t i = i0 + (size_t)ii * stride_b;
+                    if (out) {
+                        bf[k] = pops_post(p, qs[m], i);
+                    } else {
+                        pops_write(p, qs[m], pops_post_slot(p, qs[m], i), bf[k]);
+                    }
+                }
+            }
+        }
+        return;
+    }
     if (p->h != NULL) {
         LAYER_COPY(float, p->h);
     } else {

@@ -197,16 +197,10 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
                                                       : LAYOUT_SWAPPED;
     if (fl->streaming == STREAMING_MOMENTS) {
         /* its kernel goes over whole planes in z order (kernel_moments.c):
-         * no chunks of planes beside the spheres' stages */
+         * no chunks of planes beside the spheres' stages, and on several
+         * ranks the exchange before the update (no inner rows in flight) */
         fl->sov.mode = SOV_OFF;
-        if (decomp_parallel(&fl->d)) {
-            log_msg(log, STATUS_ERROR, "fluid",
-                    "%s: fluid.streaming = moments runs on one MPI rank only (its halo exchange is not written); "
-                    "allowed on several ranks: in_place, two_array",
-                    fl->path);
-            fluid_free(fl);
-            return STATUS_ERROR;
-        }
+        fl->overlap = 0;
     }
     int have = 1;
     for (int k = 0; k < fluid_arrays(fl); k++) {
@@ -233,7 +227,7 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
         }
     }
     if (have && fl->streaming == STREAMING_MOMENTS) {
-        have = moments_create(&fl->mom, &fl->g, fl->flags);
+        have = moments_create(&fl->mom, &fl->g);
     }
     if (!have) {
         log_msg(log, STATUS_ERROR, "fluid",

@@ -377,3 +377,21 @@ def test_dual_star_short_same_loads(tmp_path):
     for k in a:
         assert np.array_equal(a[k], b[k]), k
     assert np.abs(a["spheres/force"]).max() > 0.0 and np.abs(a["connections/force"]).max() > 0.0
+
+
+@pytest.mark.parametrize("case", ["faces", "periodic", "sphere"])
+def test_moments_layout_same_on_1_2_4_ranks(tmp_path, case):
+    """fluid.streaming: moments (fluid/moments.h) across ranks: the exchange
+    sends f~_q of the outer layer, rebuilt from the cells' moments, into the
+    neighbours' ghost entries of the side store. Every face type cut along z
+    and y; a periodic x axis cut between ranks; a settling sphere crossing a
+    cut (its solid cells in the exchanged ghost layers keep their ghost
+    entries)."""
+    if case == "faces":
+        scene, sets = box(ALL_FACES, "moments", collision="regularized"), []
+    elif case == "periodic":
+        scene, sets = box(PERIODIC_X, "moments", collision="regularized"), ["run.ranks=[2, 1, 1]"]
+    else:
+        scene, sets = SETTLE.replace("streaming: in_place", "streaming: moments"), ["run.ranks=[1, 1, 2]"]
+    ranks = (1, 2, 4) if case == "faces" else (1, 2)
+    assert_identical(run_ranks(tmp_path, scene, "mom_" + case, ranks=ranks, sets=sets))
