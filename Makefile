@@ -147,7 +147,8 @@ drag-report: deps
 # when its master has initialised it (fluid/decomp.c).
 FMI_SRC       := common/fmi_instance.c common/fmi_values.c common/fmi_state.c
 FMU_FLUID_SRC := $(COMMON_SRC) common/fmi_vars.c $(FMI_SRC) common/h5fields.c common/h5_cause.c \
-                 $(filter-out fluid/kernel.c fluid/kernel_single.c fluid/scan.c,$(FLUID_SRC)) fluid/kernel_dispatch.c fluid/fluid_fmi.c
+                 $(filter-out fluid/kernel.c fluid/kernel_single.c fluid/scan.c fluid/kernel_moments.c,$(FLUID_SRC)) \
+                 fluid/kernel_dispatch.c fluid/fluid_fmi.c
 FMU_RIGID_SRC := $(COMMON_SRC) common/fmi_vars.c $(FMI_SRC) $(RIGID_SRC) rigid/rigid_fmi.c
 # FMUs travel to other machines: the x86-64 baseline (SSE2) instead of
 # -march=native (the kernel is memory-bound; see README "FMUs").
@@ -176,17 +177,20 @@ $(BUILD)/fmu/obj/fmi_adapter_fluid.o $(BUILD)/fmu/obj/fmi_adapter_rigid.o: $(BUI
 # the fluid kernels (double and single storage) and the grid scan (fluid/
 # scan.c) twice, for the x86-64 baseline and for x86-64-v3 (AVX2, FMA);
 # fluid/kernel_dispatch.c picks one by the CPU at run time
-$(BUILD)/fmu/obj/kernel_base.o $(BUILD)/fmu/obj/kernel_single_base.o $(BUILD)/fmu/obj/scan_base.o: $(BUILD)/fmu/obj/%_base.o: fluid/%.c
+$(BUILD)/fmu/obj/kernel_base.o $(BUILD)/fmu/obj/kernel_single_base.o $(BUILD)/fmu/obj/scan_base.o \
+$(BUILD)/fmu/obj/kernel_moments_base.o: $(BUILD)/fmu/obj/%_base.o: fluid/%.c
 	@mkdir -p $(dir $@)
 	$(CC) $(FMU_CFLAGS) -DKERNEL_VARIANT=base -DKERNEL_PRIMARY -MMD -MP -c $< -o $@
-$(BUILD)/fmu/obj/kernel_v3.o $(BUILD)/fmu/obj/kernel_single_v3.o $(BUILD)/fmu/obj/scan_v3.o: $(BUILD)/fmu/obj/%_v3.o: fluid/%.c
+$(BUILD)/fmu/obj/kernel_v3.o $(BUILD)/fmu/obj/kernel_single_v3.o $(BUILD)/fmu/obj/scan_v3.o \
+$(BUILD)/fmu/obj/kernel_moments_v3.o: $(BUILD)/fmu/obj/%_v3.o: fluid/%.c
 	@mkdir -p $(dir $@)
 	$(CC) $(FMU_CFLAGS) $(if $(FMU_ARCH),-march=x86-64-v3,) -DKERNEL_VARIANT=v3 -MMD -MP -c $< -o $@
 
 $(BUILD)/fmu/fluid.so: $(call fmu_obj,$(FMU_FLUID_SRC)) $(BUILD)/fmu/obj/fmi_adapter_fluid.o \
                        $(BUILD)/fmu/obj/kernel_base.o $(BUILD)/fmu/obj/kernel_v3.o \
                        $(BUILD)/fmu/obj/kernel_single_base.o $(BUILD)/fmu/obj/kernel_single_v3.o \
-                       $(BUILD)/fmu/obj/scan_base.o $(BUILD)/fmu/obj/scan_v3.o
+                       $(BUILD)/fmu/obj/scan_base.o $(BUILD)/fmu/obj/scan_v3.o \
+                       $(BUILD)/fmu/obj/kernel_moments_base.o $(BUILD)/fmu/obj/kernel_moments_v3.o
 	$(CC) $(FMU_CFLAGS) $(FMU_LDFLAGS) $^ -o $@ $(FMU_FLUID_LIBS)
 
 $(BUILD)/fmu/rigid.so: $(call fmu_obj,$(FMU_RIGID_SRC)) $(BUILD)/fmu/obj/fmi_adapter_rigid.o

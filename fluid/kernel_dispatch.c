@@ -6,6 +6,7 @@
  * AGGLO_KERNEL=base selects the baseline kernel on any CPU. The grid scan of
  * the totals and checks (scan.c) is compiled and picked the same way. */
 #include "kernel.h"
+#include "moments.h"
 #include "scan.h"
 
 #include <stdlib.h>
@@ -76,6 +77,14 @@ void kernel_in_place_f32(const grid_t *g, const kernel_params_t *p, float *f, in
     } else {
         kernel_in_place_f32_base(g, p, f, push, box);
     }
+}
+
+int kernel_moments_base(const grid_t *g, const kernel_params_t *p, moments_t *ms);
+int kernel_moments_v3(const grid_t *g, const kernel_params_t *p, moments_t *ms);
+
+int kernel_moments(const grid_t *g, const kernel_params_t *p, moments_t *ms)
+{
+    return use_v3() ? kernel_moments_v3(g, p, ms) : kernel_moments_base(g, p, ms);
 }
 
 int fluid_scan_base(const fluid_t *fl, double umax2, double *plane, xsum_t *sums, int totals);

@@ -43,6 +43,19 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* KERNEL_VARIANT (the FMU build, as kernel.c): compiled for the x86-64
+ * baseline and for x86-64-v3 under kernel_moments_base / _v3, picked by
+ * kernel_dispatch.c; without it (build/coupler, tests: -march=native) it
+ * defines kernel_moments itself. */
+#define KM_CAT2(a, b) a##_##b
+#define KM_CAT(a, b) KM_CAT2(a, b)
+#if defined(KERNEL_VARIANT)
+#define KM_ENTRY KM_CAT(kernel_moments, KERNEL_VARIANT)
+int KM_ENTRY(const grid_t *g, const kernel_params_t *p, moments_t *ms);
+#else
+#define KM_ENTRY kernel_moments
+#endif
+
 static void copy_plane(double *restrict dst, const double *restrict m, size_t stride, size_t np, int z)
 {
     for (int k = 0; k < MOM_N; k++) {
@@ -59,28 +72,14 @@ typedef struct {
     double om, fx, fy, fz;
 } kctx_t;
 
-/* The collision of the pulled f of cell i, its new moments into m. */
-static inline __attribute__((always_inline)) void collide_store(const kctx_t *k, const double *f, size_t i,
-                                                               double *restrict m, size_t stride)
+/* The collision of cell i from the moments of its pulled f (rho, j, the
+ * second moment P), its new moments into m. */
+static inline __attribute__((always_inline)) void collide_moments(double om, double fx, double fy, double fz, size_t i,
+                                                                 double *restrict m, size_t stride, double rho,
+                                                                 double jx, double jy, double jz, double pxx,
+                                                                 double pyy, double pzz, double pxy, double pxz,
+                                                                 double pyz)
 {
-    double rho = 0.0, jx = 0.0, jy = 0.0, jz = 0.0, pxx = 0.0, pyy = 0.0, pzz = 0.0, pxy = 0.0, pxz = 0.0,
-           pyz = 0.0;
-#pragma GCC unroll 19
-    for (int q = 0; q < LB_Q; q++) {
-        const int cx = lb_c[q][0], cy = lb_c[q][1], cz = lb_c[q][2];
-        const double v = f[q];
-        rho += v;
-        LB_ADD(jx, cx, v);
-        LB_ADD(jy, cy, v);
-        LB_ADD(jz, cz, v);
-        LB_ADD(pxx, cx * cx, v);
-        LB_ADD(pyy, cy * cy, v);
-        LB_ADD(pzz, cz * cz, v);
-        LB_ADD(pxy, cx * cy, v);
-        LB_ADD(pxz, cx * cz, v);
-        LB_ADD(pyz, cy * cz, v);
-    }
-    const double fx = k->fx, fy = k->fy, fz = k->fz, om = k->om;
     const double inv = 1.0 / rho;
     const double ux = (jx + 0.5 * fx) * inv, uy = (jy + 0.5 * fy) * inv, uz = (jz + 0.5 * fz) * inv;
     const double r3 = rho / 3.0, keep = 1.0 - om, src = 1.0 - 0.5 * om;
@@ -97,6 +96,26 @@ static inline __attribute__((always_inline)) void collide_store(const kctx_t *k,
     m[MOM_AXZ * stride + i] = exz + keep * (pxz - exz) + src * (ux * fz + uz * fx);
     m[MOM_AYZ * stride + i] = eyz + keep * (pyz - eyz) + src * (uy * fz + uz * fy);
 }
+
+/* The sums of the moments of f over q, in q order (both paths alike). */
+#define MOMENT_SUMS(F)                                                                                         \
+    double rho = 0.0, jx = 0.0, jy = 0.0, jz = 0.0, pxx = 0.0, pyy = 0.0, pzz = 0.0, pxy = 0.0, pxz = 0.0,     \
+           pyz = 0.0;                                                                                          \
+    _Pragma("GCC unroll 19") for (int q = 0; q < LB_Q; q++)                                                    \
+    {                                                                                                          \
+        const int cx = lb_c[q][0], cy = lb_c[q][1], cz = lb_c[q][2];                                          \
+        const double v = (F);                                                                                  \
+        rho += v;                                                                                              \
+        LB_ADD(jx, cx, v);                                                                                     \
+        LB_ADD(jy, cy, v);                                                                                     \
+        LB_ADD(jz, cz, v);                                                                                     \
+        LB_ADD(pxx, cx * cx, v);                                                                               \
+        LB_ADD(pyy, cy * cy, v);                                                                               \
+        LB_ADD(pzz, cz * cz, v);                                                                               \
+        LB_ADD(pxy, cx * cy, v);                                                                               \
+        LB_ADD(pxz, cx * cz, v);                                                                               \
+        LB_ADD(pyz, cy * cz, v);                                                                               \
+    }
 
 /* One cell: i its grid index, pi its index in the plane; lo, mid, hi the
  * old moments of the planes z - 1, z (copies: moment k of plane cell pi at
@@ -118,33 +137,32 @@ static inline __attribute__((always_inline)) void update_cell(const kctx_t *k, c
                                     : pops_rebuild(mid, k->np, q, at);
         }
     }
-    collide_store(k, f, i, m, stride);
+    MOMENT_SUMS(f[q])
+    collide_moments(k->om, k->fx, k->fy, k->fz, i, m, stride, rho, jx, jy, jz, pxx, pyy, pzz, pxy, pxz, pyz);
 }
 
 /* Cells x0 .. x1 of a row whose neighbours are all fluid: no index to
- * look at, and the cells side by side in vector lanes. The same
+ * look at, and the cells side by side in vector lanes (what the loop reads
+ * held in locals: stores to m could alias a field of k). The same
  * arithmetic, in the same order, as update_cell: the same bits. */
 static inline __attribute__((always_inline)) void update_run(const kctx_t *k, const double *restrict lo,
                                                             const double *restrict mid, const double *restrict hi,
-                                                            size_t hn, size_t i0, size_t pi0, int n,
+                                                            size_t hn, size_t i0, size_t pi0, int n, ptrdiff_t sx,
                                                             double *restrict m, size_t stride)
 {
+    const size_t np = k->np;
+    const double om = k->om, fx = k->fx, fy = k->fy, fz = k->fz;
 #pragma omp simd
     for (int x = 0; x < n; x++) {
         const size_t pi = pi0 + (size_t)x;
-        double f[LB_Q];
-#pragma GCC unroll 19
-        for (int q = 0; q < LB_Q; q++) {
-            const size_t at = (size_t)((ptrdiff_t)pi - k->poff[q]);
-            f[q] = lb_c[q][2] > 0   ? pops_rebuild(lo, k->np, q, at)
-                   : lb_c[q][2] < 0 ? pops_rebuild(hi, hn, q, at)
-                                    : pops_rebuild(mid, k->np, q, at);
-        }
-        collide_store(k, f, i0 + (size_t)x, m, stride);
+        MOMENT_SUMS(lb_c[q][2] > 0   ? pops_rebuild(lo, np, q, (size_t)((ptrdiff_t)pi - cx - sx * cy))
+                    : lb_c[q][2] < 0 ? pops_rebuild(hi, hn, q, (size_t)((ptrdiff_t)pi - cx - sx * cy))
+                                     : pops_rebuild(mid, np, q, (size_t)((ptrdiff_t)pi - cx - sx * cy)))
+        collide_moments(om, fx, fy, fz, i0 + (size_t)x, m, stride, rho, jx, jy, jz, pxx, pyy, pzz, pxy, pxz, pyz);
     }
 }
 
-int kernel_moments(const grid_t *g, const kernel_params_t *p, moments_t *ms)
+int KM_ENTRY(const grid_t *g, const kernel_params_t *p, moments_t *ms)
 {
     const size_t np = (size_t)g->s[0] * (size_t)g->s[1];
     const int maxt = omp_get_max_threads();
@@ -203,7 +221,7 @@ int kernel_moments(const grid_t *g, const kernel_params_t *p, moments_t *ms)
                 for (int x = 1; x <= nx; x++) {
                     const size_t pi = (size_t)y * (size_t)g->s[0] + (size_t)x, i = (size_t)z * np + pi;
                     if (clear && x == 2) {
-                        update_run(&k, prev, cur, hi, hn, i, pi, nx - 2, m, stride);
+                        update_run(&k, prev, cur, hi, hn, i, pi, nx - 2, (ptrdiff_t)g->s[0], m, stride);
                         x = nx - 1;
                         continue;
                     }
