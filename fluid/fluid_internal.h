@@ -1,7 +1,8 @@
 /* fluid_internal.h — the fluid component's state, shared by its own files.
  *
  * Invariant between steps: f[cur] holds the post-collision populations of
- * the last step for every interior cell. Ghost (and later solid) slots of
+ * the last step for every interior cell (the moments layout: mom holds
+ * their moments, moments.h). Ghost (and later solid) slots of
  * f[cur] are stale until the boundary stage fills exactly the slots that
  * interior cells pull from. Everything the component owns is reachable from
  * here, so that a state can be serialised without hidden parts. */

@@ -29,12 +29,18 @@
  *
  * In place. A cell's neighbours must read its old moments after it has
  * written its new ones: the planes are updated in z order, each thread over
- * its own slab of planes, keeping copies of the old moments of the plane
- * below (z - 1) and of the plane itself (z); the plane above is still old
- * in m, but for the last plane of a slab, whose upper neighbour is the next
- * slab's first plane: that one, and the plane below the slab, are copied
- * before any thread starts (a barrier). Extra memory: three planes of 10
- * doubles per thread. Cells inside the spheres (solid) are left alone. */
+ * its own slab of planes, keeping the old populations with c_z >= 0 (14)
+ * of the plane below (z - 1: its 5 with c_z = +1 are pulled) and of the
+ * plane itself (z: its 9 with c_z = 0), and the 5 with c_z = -1 of the
+ * plane above (still old in m), each rebuilt once per cell from its
+ * moments before the plane is updated (rebuilding a neighbour's value for
+ * each pull, 18 rebuilds of 10 loads per cell, ran at 14 MLUPS on one
+ * thread at 128^3 where this runs at 43; README "Moments layout"). The
+ * last plane of a slab has the next slab's first plane above it: its
+ * moments, and the populations of the plane below the slab, are taken
+ * before any thread starts (a barrier). Extra memory: 2 x 14 + 5 + 10
+ * doubles per plane cell and thread (MOMENTS_PLANE_DOUBLES). Cells inside
+ * the spheres (solid) are left alone. */
 #include "moments.h"
 
 #include "lattice.h"
@@ -117,37 +123,79 @@ static inline __attribute__((always_inline)) void collide_moments(double om, dou
         LB_ADD(pyz, cy * cz, v);                                                                               \
     }
 
-/* One cell: i its grid index, pi its index in the plane; lo, mid, hi the
- * old moments of the planes z - 1, z (copies: moment k of plane cell pi at
- * k np + pi) and z + 1 (moment k at k hn + pi: a copy, or m itself). */
+/* The populations kept per plane: those with c_z >= 0 (14), in q order;
+ * PLANE_SLOT[q] their place, -1 for c_z = -1 (moments.h MOMENTS_PLANE_POPS). */
+static const signed char PLANE_SLOT[LB_Q] = {0, 1, 2, 3, 4, 5, 6, -1, 7, -1, 8, 9, -1, 10, 11, -1, 12, -1, 13};
+/* and those with c_z = -1 (5), of the plane above */
+static const signed char DOWN_SLOT[LB_Q] = {-1, -1, -1, -1, -1, -1, -1, 0, -1, 1, -1, -1, 2, -1, -1, 3, -1, 4, -1};
+
+/* buf <- the populations with c_z >= 0 of every cell of plane z, rebuilt
+ * from its (old) moments in m: each cell's 14 values from its 10 moments
+ * once, where pulling them from the moments rebuilt each neighbour's for
+ * one value. */
+static void rebuild_plane(double *restrict buf, const double *restrict m, size_t stride, size_t np, int z)
+{
+    const double *src = m + (size_t)z * np;
+#pragma omp simd
+    for (size_t pi = 0; pi < np; pi++) {
+#pragma GCC unroll 19
+        for (int q = 0; q < LB_Q; q++) {
+            if (PLANE_SLOT[q] >= 0) {
+                buf[(size_t)PLANE_SLOT[q] * np + pi] = pops_rebuild(src, stride, q, pi);
+            }
+        }
+    }
+}
+
+/* buf <- the populations with c_z = -1 of every cell of a plane whose
+ * moments are at src (moment k at k n). */
+static void rebuild_down(double *restrict buf, const double *restrict src, size_t n, size_t np)
+{
+#pragma omp simd
+    for (size_t pi = 0; pi < np; pi++) {
+#pragma GCC unroll 19
+        for (int q = 0; q < LB_Q; q++) {
+            if (DOWN_SLOT[q] >= 0) {
+                buf[(size_t)DOWN_SLOT[q] * np + pi] = pops_rebuild(src, n, q, pi);
+            }
+        }
+    }
+}
+
+/* f~_q of the fluid neighbour x - c_q of the cell at plane index pi (at =
+ * pi - the in-plane part of c_q): from the populations of the plane below
+ * (lo), of its own plane (mid) or of the plane above (hi). */
+static inline __attribute__((always_inline)) double pulled(const double *lo, const double *mid, const double *hi,
+                                                          size_t np, int q, size_t at)
+{
+    return lb_c[q][2] > 0   ? lo[(size_t)PLANE_SLOT[q] * np + at]
+           : lb_c[q][2] < 0 ? hi[(size_t)DOWN_SLOT[q] * np + at]
+                            : mid[(size_t)PLANE_SLOT[q] * np + at];
+}
+
+/* One cell: i its grid index, pi its index in the plane. */
 static inline __attribute__((always_inline)) void update_cell(const kctx_t *k, const double *lo, const double *mid,
-                                                             const double *hi, size_t hn, size_t i, size_t pi,
-                                                             double *restrict m, size_t stride)
+                                                             const double *hi, size_t i, size_t pi, double *restrict m,
+                                                             size_t stride)
 {
     double f[LB_Q];
 #pragma GCC unroll 19
     for (int q = 0; q < LB_Q; q++) {
         const int32_t e = k->idx[(ptrdiff_t)i - k->off[q]];
-        if (e >= 0) {
-            f[q] = k->side[(size_t)e * LB_Q + (size_t)q];
-        } else {
-            const size_t at = (size_t)((ptrdiff_t)pi - k->poff[q]);
-            f[q] = lb_c[q][2] > 0   ? pops_rebuild(lo, k->np, q, at)
-                   : lb_c[q][2] < 0 ? pops_rebuild(hi, hn, q, at)
-                                    : pops_rebuild(mid, k->np, q, at);
-        }
+        f[q] = e >= 0 ? k->side[(size_t)e * LB_Q + (size_t)q]
+                      : pulled(lo, mid, hi, k->np, q, (size_t)((ptrdiff_t)pi - k->poff[q]));
     }
     MOMENT_SUMS(f[q])
     collide_moments(k->om, k->fx, k->fy, k->fz, i, m, stride, rho, jx, jy, jz, pxx, pyy, pzz, pxy, pxz, pyz);
 }
 
-/* Cells x0 .. x1 of a row whose neighbours are all fluid: no index to
- * look at, and the cells side by side in vector lanes (what the loop reads
- * held in locals: stores to m could alias a field of k). The same
- * arithmetic, in the same order, as update_cell: the same bits. */
+/* n cells of a row from plane index pi0 on whose neighbours are all fluid:
+ * no index to look at, and the cells side by side in vector lanes (what
+ * the loop reads held in locals: stores to m could alias a field of k).
+ * The same arithmetic, in the same order, as update_cell: the same bits. */
 static inline __attribute__((always_inline)) void update_run(const kctx_t *k, const double *restrict lo,
                                                             const double *restrict mid, const double *restrict hi,
-                                                            size_t hn, size_t i0, size_t pi0, int n, ptrdiff_t sx,
+                                                            size_t i0, size_t pi0, int n, ptrdiff_t sx,
                                                             double *restrict m, size_t stride)
 {
     const size_t np = k->np;
@@ -155,9 +203,7 @@ static inline __attribute__((always_inline)) void update_run(const kctx_t *k, co
 #pragma omp simd
     for (int x = 0; x < n; x++) {
         const size_t pi = pi0 + (size_t)x;
-        MOMENT_SUMS(lb_c[q][2] > 0   ? pops_rebuild(lo, np, q, (size_t)((ptrdiff_t)pi - cx - sx * cy))
-                    : lb_c[q][2] < 0 ? pops_rebuild(hi, hn, q, (size_t)((ptrdiff_t)pi - cx - sx * cy))
-                                     : pops_rebuild(mid, np, q, (size_t)((ptrdiff_t)pi - cx - sx * cy)))
+        MOMENT_SUMS(pulled(lo, mid, hi, np, q, (size_t)((ptrdiff_t)pi - cx - sx * cy)))
         collide_moments(om, fx, fy, fz, i0 + (size_t)x, m, stride, rho, jx, jy, jz, pxx, pyy, pzz, pxy, pxz, pyz);
     }
 }
@@ -169,7 +215,7 @@ int KM_ENTRY(const grid_t *g, const kernel_params_t *p, moments_t *ms)
     if (ms->planes == NULL || ms->nplanes < maxt) {
         free(ms->planes);
         ms->nplanes = 0;
-        ms->planes = malloc((size_t)maxt * 3 * MOM_N * np * sizeof(double));
+        ms->planes = malloc((size_t)maxt * MOMENTS_PLANE_DOUBLES * np * sizeof(double));
         if (ms->planes == NULL) {
             return 0;
         }
@@ -195,19 +241,25 @@ int KM_ENTRY(const grid_t *g, const kernel_params_t *p, moments_t *ms)
     {
         const int nt = omp_get_num_threads(), t = omp_get_thread_num();
         const int z0 = 1 + nz * t / nt, z1 = nz * (t + 1) / nt;
-        double *prev = planes + (size_t)t * 3 * MOM_N * np, *cur = prev + MOM_N * np, *top = cur + MOM_N * np;
+        /* the populations (c_z >= 0) of the planes z - 1 and z, the moments
+         * of the plane above the slab */
+        double *prev = planes + (size_t)t * MOMENTS_PLANE_DOUBLES * np, *cur = prev + MOMENTS_PLANE_POPS * np,
+               *up = cur + MOMENTS_PLANE_POPS * np, *top = up + MOMENTS_PLANE_DOWN * np;
         if (z0 <= z1) {
-            copy_plane(prev, m, stride, np, z0 - 1);
+            rebuild_plane(prev, m, stride, np, z0 - 1);
             copy_plane(top, m, stride, np, z1 + 1);
         }
 #pragma omp barrier
         if (z0 <= z1) {
-            copy_plane(cur, m, stride, np, z0);
+            rebuild_plane(cur, m, stride, np, z0);
         }
         for (int z = z0; z <= z1; z++) {
             /* the plane above: still old in m, but for the slab's last */
-            const double *hi = z == z1 ? top : m + (size_t)(z + 1) * np;
-            const size_t hn = z == z1 ? np : stride;
+            if (z == z1) {
+                rebuild_down(up, top, np, np);
+            } else {
+                rebuild_down(up, m + (size_t)(z + 1) * np, stride, np);
+            }
             const size_t sy = (size_t)g->s[1];
             for (int y = 1; y <= ny; y++) {
                 /* the row and its eight neighbour rows all fluid: cells 2 .. nx - 1
@@ -221,12 +273,12 @@ int KM_ENTRY(const grid_t *g, const kernel_params_t *p, moments_t *ms)
                 for (int x = 1; x <= nx; x++) {
                     const size_t pi = (size_t)y * (size_t)g->s[0] + (size_t)x, i = (size_t)z * np + pi;
                     if (clear && x == 2) {
-                        update_run(&k, prev, cur, hi, hn, i, pi, nx - 2, (ptrdiff_t)g->s[0], m, stride);
+                        update_run(&k, prev, cur, up, i, pi, nx - 2, (ptrdiff_t)g->s[0], m, stride);
                         x = nx - 1;
                         continue;
                     }
                     if (k.idx[i] < 0) {
-                        update_cell(&k, prev, cur, hi, hn, i, pi, m, stride);
+                        update_cell(&k, prev, cur, up, i, pi, m, stride);
                     }
                 }
             }
@@ -234,7 +286,7 @@ int KM_ENTRY(const grid_t *g, const kernel_params_t *p, moments_t *ms)
             prev = cur;
             cur = t2;
             if (z < z1) {
-                copy_plane(cur, m, stride, np, z + 1);
+                rebuild_plane(cur, m, stride, np, z + 1);
             }
         }
     }

@@ -1,6 +1,7 @@
-/* layout.h — where a population lives in memory, for both streaming layouts.
+/* layout.h — where a population lives in memory, for the streaming layouts.
  *
- * Two layouts (scene key fluid.streaming):
+ * Three layouts (scene key fluid.streaming; the third, moments, below the
+ * table: LAYOUT_MOMENTS):
  *   two_array  pull from one array, write the other (kernel.c); the arrays swap.
  *   in_place   one array, the AA pattern (Bailey, Myre, Walsh, Lilja & Bader,
  *              ICPP 2009): steps alternate between a local kernel, which reads

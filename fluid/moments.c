@@ -137,6 +137,6 @@ int moments_sync(moments_t *ms, const grid_t *g, const spheres_t *sp)
 size_t moments_bytes(const moments_t *ms, const grid_t *g)
 {
     return (size_t)MOM_N * g->stride * sizeof(double) + g->ncells * sizeof(int32_t) + (size_t)g->s[1] * (size_t)g->s[2] +
-           ms->cap * LB_Q * sizeof(double) + (size_t)ms->nplanes * 3 * MOM_N * (size_t)g->s[0] * (size_t)g->s[1] *
+           ms->cap * LB_Q * sizeof(double) + (size_t)ms->nplanes * MOMENTS_PLANE_DOUBLES * (size_t)g->s[0] * (size_t)g->s[1] *
                                                    sizeof(double);
 }

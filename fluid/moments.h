@@ -35,6 +35,15 @@
 
 struct spheres_s;
 
+/* The kernel's copies per thread, doubles per cell of a plane: the 14
+ * populations with c_z >= 0 of two planes, the 5 with c_z = -1 of one and
+ * the 10 moments of one (kernel_moments.c). */
+enum {
+    MOMENTS_PLANE_POPS = 14,
+    MOMENTS_PLANE_DOWN = 5,
+    MOMENTS_PLANE_DOUBLES = 2 * MOMENTS_PLANE_POPS + MOMENTS_PLANE_DOWN + MOM_N
+};
+
 typedef struct {
     double *m;       /* MOM_N * stride */
     double *side;    /* LB_Q per entry, cap entries */
@@ -44,7 +53,7 @@ typedef struct {
     size_t cap;      /* entries allocated */
     long map;        /* the sphere map the solid entries belong to (spheres_t.maps) */
     uint8_t *row_fluid; /* per row (y, z) of the allocated grid: 1 when its interior cells are all fluid */
-    double *planes;  /* the kernel's copies of old planes: 3 per thread */
+    double *planes;  /* the kernel's copies of old planes: MOMENTS_PLANE_DOUBLES per plane cell and thread */
     int nplanes;     /* threads the planes are allocated for */
 } moments_t;
 

@@ -363,7 +363,7 @@ status_t fluid_step(fluid_t *fl)
                 if (!kernel_moments(&fl->g, &fl->kp, &fl->mom)) {
                     return log_msg(&fl->log, STATUS_ERROR, "fluid",
                                    "%s: out of memory for the moments kernel's plane copies (%zu bytes per thread)",
-                                   fl->path, (size_t)3 * MOM_N * (size_t)fl->g.s[0] * (size_t)fl->g.s[1] *
+                                   fl->path, (size_t)MOMENTS_PLANE_DOUBLES * (size_t)fl->g.s[0] * (size_t)fl->g.s[1] *
                                                  sizeof(double));
                 }
             } else {

@@ -5,6 +5,7 @@
 #include "kernel.h"
 #include "lattice.h"
 #include "layout.h"
+#include "moments.h"
 
 #include <math.h>
 #include <omp.h>
@@ -69,7 +70,7 @@ double units_extra_bytes(const scene_t *s, const grid_t *g, int threads)
     }
     /* every ghost cell and every cell inside a sphere (its volume in cells,
      * the spheres apart), 19 doubles each, with the store's slack (an
-     * eighth: moments_sync); three planes of moments per thread */
+     * eighth: moments_sync); the kernel's plane copies per thread */
     const double ghosts = (double)g->ncells - (double)g->n[0] * g->n[1] * g->n[2];
     double solid = 0.0;
     for (int i = 0; i < s->nbodies; i++) {
@@ -79,7 +80,7 @@ double units_extra_bytes(const scene_t *s, const grid_t *g, int threads)
         }
     }
     return ghosts * LB_Q * sizeof(double) + 1.125 * solid * LB_Q * sizeof(double) +
-           3.0 * threads * MOM_N * sizeof(double) * g->s[0] * g->s[1];
+           (double)threads * MOMENTS_PLANE_DOUBLES * sizeof(double) * g->s[0] * g->s[1];
 }
 
 int units_grid_align(const scene_t *s) { return s->fluid.streaming == STREAMING_TWO_ARRAY ? GRID_ALIGN : 1; }

@@ -12,6 +12,7 @@
 
 #include <CUnit/CUnit.h>
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -329,7 +330,7 @@ static void test_memory(void)
     CU_ASSERT_EQUAL(fl->mom.nghost, ghosts);
     CU_ASSERT_EQUAL(fl->mom.nside, ghosts + fl->spheres.nsolid);
     CU_ASSERT(fluid_memory_bytes(fl) < (size_t)(g->ncells * 10 * 8 + g->ncells * 4 + g->ncells) +
-                                           fl->mom.cap * 19 * 8 + (size_t)fl->mom.nplanes * 3 * 10 * 8 * g->s[0] * g->s[1] +
+                                           fl->mom.cap * 19 * 8 + (size_t)fl->mom.nplanes * MOMENTS_PLANE_DOUBLES * 8 * g->s[0] * g->s[1] +
                                            ((size_t)1 << 20));
     fluid_free(fl);
 }
@@ -371,6 +372,38 @@ static void test_fast_rows_same_bits(void)
     free(m[1]);
 }
 
+/* Each thread updates its own slab of planes, with the planes beside its
+ * slab taken before any starts: 1, 2, 3 and 5 threads (slabs of one plane
+ * at the end) give the same bits, with a moving sphere and walls. */
+static void test_threads_same_bits(void)
+{
+    static const int threads[4] = {1, 2, 3, 5};
+    double *m0 = NULL;
+    size_t bytes = 0;
+    const int was = omp_get_max_threads();
+    for (int k = 0; k < 4; k++) {
+        omp_set_num_threads(threads[k]);
+        scene_t s = sphere_scene(STREAMING_MOMENTS, COLLISION_REGULARIZED, 1);
+        s.domain.size[2] = 21; /* uneven slabs */
+        s.domain.faces[4].type = FACE_NO_SLIP;
+        s.domain.faces[5].type = FACE_MOVING_WALL;
+        s.domain.faces[5].velocity[0] = 0.02;
+        fluid_t *fl = test_fluid(&s);
+        test_run(fl, 25);
+        bytes = (size_t)MOM_N * fl->g.stride * sizeof(double);
+        if (k == 0) {
+            m0 = malloc(bytes);
+            CU_ASSERT_FATAL(m0 != NULL);
+            memcpy(m0, fl->mom.m, bytes);
+        } else {
+            CU_ASSERT(memcmp(m0, fl->mom.m, bytes) == 0);
+        }
+        fluid_free(fl);
+    }
+    omp_set_num_threads(was);
+    free(m0);
+}
+
 void moments_register_tests(void)
 {
     CU_pSuite s = CU_add_suite("moments", NULL, NULL);
@@ -383,4 +416,5 @@ void moments_register_tests(void)
     CU_add_test(s, "state save, restore, continue: bit-identical", test_state_restore);
     CU_add_test(s, "memory: 10 moments per cell, side store for ghost and solid cells", test_memory);
     CU_add_test(s, "rows away from non-fluid cells (no index, vector lanes): the same bits", test_fast_rows_same_bits);
+    CU_add_test(s, "1, 2, 3 and 5 threads (slabs of planes): the same bits", test_threads_same_bits);
 }
