@@ -29,16 +29,16 @@
  *
  * In place. A cell's neighbours must read its old moments after it has
  * written its new ones: the planes are updated in z order, each thread over
- * its own slab of planes, keeping the old populations with c_z >= 0 (14)
- * of the plane below (z - 1: its 5 with c_z = +1 are pulled) and of the
- * plane itself (z: its 9 with c_z = 0), and the 5 with c_z = -1 of the
- * plane above (still old in m), each rebuilt once per cell from its
- * moments before the plane is updated (rebuilding a neighbour's value for
+ * its own slab of planes, keeping aside the old populations its cells pull:
+ * the 5 with c_z = +1 of the plane below (z - 1), the 9 with c_z = 0 of the
+ * plane itself and the 5 with c_z = -1 of the plane above (still old in
+ * m), each rebuilt once per cell from its moments before the plane is
+ * updated (rebuilding a neighbour's value for
  * each pull, 18 rebuilds of 10 loads per cell, ran at 14 MLUPS on one
  * thread at 128^3 where this runs at 43; README "Moments layout"). The
  * last plane of a slab has the next slab's first plane above it: its
  * moments, and the populations of the plane below the slab, are taken
- * before any thread starts (a barrier). Extra memory: 2 x 14 + 5 + 10
+ * before any thread starts (a barrier). Extra memory: 5 + 5 + 9 + 5 + 5
  * doubles per plane cell and thread (MOMENTS_PLANE_DOUBLES). Cells inside
  * the spheres (solid) are left alone. */
 #include "moments.h"
@@ -47,7 +47,6 @@
 
 #include <omp.h>
 #include <stdlib.h>
-#include <string.h>
 
 /* KERNEL_VARIANT (the FMU build, as kernel.c): compiled for the x86-64
  * baseline and for x86-64-v3 under kernel_moments_base / _v3, picked by
@@ -61,13 +60,6 @@ int KM_ENTRY(const grid_t *g, const kernel_params_t *p, moments_t *ms);
 #else
 #define KM_ENTRY kernel_moments
 #endif
-
-static void copy_plane(double *restrict dst, const double *restrict m, size_t stride, size_t np, int z)
-{
-    for (int k = 0; k < MOM_N; k++) {
-        memcpy(dst + (size_t)k * np, m + (size_t)k * stride + (size_t)z * np, np * sizeof(double));
-    }
-}
 
 typedef struct {
     const int32_t *idx;
@@ -123,43 +115,50 @@ static inline __attribute__((always_inline)) void collide_moments(double om, dou
         LB_ADD(pyz, cy * cz, v);                                                                               \
     }
 
-/* The populations kept per plane: those with c_z >= 0 (14), in q order;
- * PLANE_SLOT[q] their place, -1 for c_z = -1 (moments.h MOMENTS_PLANE_POPS). */
-static const signed char PLANE_SLOT[LB_Q] = {0, 1, 2, 3, 4, 5, 6, -1, 7, -1, 8, 9, -1, 10, 11, -1, 12, -1, 13};
-/* and those with c_z = -1 (5), of the plane above */
+/* The populations kept per plane, by the sign of c_z, each set in q order:
+ * MID_SLOT[q] for c_z = 0 (9), UP_SLOT for c_z = +1 (5, pulled by the
+ * plane above), DOWN_SLOT for c_z = -1 (5, pulled by the plane below); -1
+ * outside the set. */
+static const signed char MID_SLOT[LB_Q] = {0, 1, 2, -1, 3, 4, -1, -1, -1, -1, 5, 6, -1, 7, 8, -1, -1, -1, -1};
+static const signed char UP_SLOT[LB_Q] = {-1, -1, -1, 0, -1, -1, 1, -1, 2, -1, -1, -1, -1, -1, -1, -1, 3, -1, 4};
 static const signed char DOWN_SLOT[LB_Q] = {-1, -1, -1, -1, -1, -1, -1, 0, -1, 1, -1, -1, 2, -1, -1, 3, -1, 4, -1};
 
-/* buf <- the populations with c_z >= 0 of every cell of plane z, rebuilt
- * from its (old) moments in m: each cell's 14 values from its 10 moments
- * once, where pulling them from the moments rebuilt each neighbour's for
- * one value. */
-static void rebuild_plane(double *restrict buf, const double *restrict m, size_t stride, size_t np, int z)
+/* The populations of the set slot[] (MID_SLOT, UP_SLOT or DOWN_SLOT) of
+ * every cell of a plane whose moments are at src (moment k at k n), into
+ * buf (slot s of plane cell pi at s np + pi); with mid != NULL also those
+ * of MID_SLOT into mid. Each cell's values from its 10 moments at once,
+ * where pulling them from the moments rebuilt a neighbour's for each value. */
+static inline __attribute__((always_inline)) void rebuild_set(double *restrict buf, const signed char *slot,
+                                                             double *restrict mid, const double *restrict src,
+                                                             size_t n, size_t np)
 {
-    const double *src = m + (size_t)z * np;
 #pragma omp simd
     for (size_t pi = 0; pi < np; pi++) {
 #pragma GCC unroll 19
         for (int q = 0; q < LB_Q; q++) {
-            if (PLANE_SLOT[q] >= 0) {
-                buf[(size_t)PLANE_SLOT[q] * np + pi] = pops_rebuild(src, stride, q, pi);
+            if (slot[q] >= 0) {
+                buf[(size_t)slot[q] * np + pi] = pops_rebuild(src, n, q, pi);
+            } else if (mid != NULL && MID_SLOT[q] >= 0) {
+                mid[(size_t)MID_SLOT[q] * np + pi] = pops_rebuild(src, n, q, pi);
             }
         }
     }
 }
 
-/* buf <- the populations with c_z = -1 of every cell of a plane whose
- * moments are at src (moment k at k n). */
-static void rebuild_down(double *restrict buf, const double *restrict src, size_t n, size_t np)
+static void rebuild_up(double *up, const double *src, size_t n, size_t np)
 {
-#pragma omp simd
-    for (size_t pi = 0; pi < np; pi++) {
-#pragma GCC unroll 19
-        for (int q = 0; q < LB_Q; q++) {
-            if (DOWN_SLOT[q] >= 0) {
-                buf[(size_t)DOWN_SLOT[q] * np + pi] = pops_rebuild(src, n, q, pi);
-            }
-        }
-    }
+    rebuild_set(up, UP_SLOT, NULL, src, n, np);
+}
+
+static void rebuild_down(double *down, const double *src, size_t n, size_t np)
+{
+    rebuild_set(down, DOWN_SLOT, NULL, src, n, np);
+}
+
+/* a plane's own (c_z = 0) and upward (c_z = +1) populations */
+static void rebuild_mid_up(double *mid, double *up, const double *src, size_t n, size_t np)
+{
+    rebuild_set(up, UP_SLOT, mid, src, n, np);
 }
 
 /* f~_q of the fluid neighbour x - c_q of the cell at plane index pi (at =
@@ -168,9 +167,9 @@ static void rebuild_down(double *restrict buf, const double *restrict src, size_
 static inline __attribute__((always_inline)) double pulled(const double *lo, const double *mid, const double *hi,
                                                           size_t np, int q, size_t at)
 {
-    return lb_c[q][2] > 0   ? lo[(size_t)PLANE_SLOT[q] * np + at]
+    return lb_c[q][2] > 0   ? lo[(size_t)UP_SLOT[q] * np + at]
            : lb_c[q][2] < 0 ? hi[(size_t)DOWN_SLOT[q] * np + at]
-                            : mid[(size_t)PLANE_SLOT[q] * np + at];
+                            : mid[(size_t)MID_SLOT[q] * np + at];
 }
 
 /* One cell: i its grid index, pi its index in the plane. */
@@ -241,24 +240,26 @@ int KM_ENTRY(const grid_t *g, const kernel_params_t *p, moments_t *ms)
     {
         const int nt = omp_get_num_threads(), t = omp_get_thread_num();
         const int z0 = 1 + nz * t / nt, z1 = nz * (t + 1) / nt;
-        /* the populations (c_z >= 0) of the planes z - 1 and z, the moments
-         * of the plane above the slab */
-        double *prev = planes + (size_t)t * MOMENTS_PLANE_DOUBLES * np, *cur = prev + MOMENTS_PLANE_POPS * np,
-               *up = cur + MOMENTS_PLANE_POPS * np, *top = up + MOMENTS_PLANE_DOWN * np;
+        /* per plane cell: the upward populations of the plane below (lo) and
+         * of this plane (lo_next, for the next), this plane's own (mid), the
+         * downward ones of the plane above (down), and those of the plane
+         * above the slab (top), taken before any thread starts */
+        double *lo = planes + (size_t)t * MOMENTS_PLANE_DOUBLES * np, *lo_next = lo + 5 * np,
+               *mid = lo_next + 5 * np, *down = mid + 9 * np, *top = down + 5 * np;
         if (z0 <= z1) {
-            rebuild_plane(prev, m, stride, np, z0 - 1);
-            copy_plane(top, m, stride, np, z1 + 1);
+            rebuild_up(lo, m + (size_t)(z0 - 1) * np, stride, np);
+            rebuild_down(top, m + (size_t)(z1 + 1) * np, stride, np);
         }
 #pragma omp barrier
         if (z0 <= z1) {
-            rebuild_plane(cur, m, stride, np, z0);
+            rebuild_mid_up(mid, lo_next, m + (size_t)z0 * np, stride, np);
         }
         for (int z = z0; z <= z1; z++) {
             /* the plane above: still old in m, but for the slab's last */
-            if (z == z1) {
-                rebuild_down(up, top, np, np);
-            } else {
-                rebuild_down(up, m + (size_t)(z + 1) * np, stride, np);
+            const double *up = top;
+            if (z < z1) {
+                rebuild_down(down, m + (size_t)(z + 1) * np, stride, np);
+                up = down;
             }
             const size_t sy = (size_t)g->s[1];
             for (int y = 1; y <= ny; y++) {
@@ -273,20 +274,20 @@ int KM_ENTRY(const grid_t *g, const kernel_params_t *p, moments_t *ms)
                 for (int x = 1; x <= nx; x++) {
                     const size_t pi = (size_t)y * (size_t)g->s[0] + (size_t)x, i = (size_t)z * np + pi;
                     if (clear && x == 2) {
-                        update_run(&k, prev, cur, up, i, pi, nx - 2, (ptrdiff_t)g->s[0], m, stride);
+                        update_run(&k, lo, mid, up, i, pi, nx - 2, (ptrdiff_t)g->s[0], m, stride);
                         x = nx - 1;
                         continue;
                     }
                     if (k.idx[i] < 0) {
-                        update_cell(&k, prev, cur, up, i, pi, m, stride);
+                        update_cell(&k, lo, mid, up, i, pi, m, stride);
                     }
                 }
             }
-            double *t2 = prev;
-            prev = cur;
-            cur = t2;
+            double *t2 = lo;
+            lo = lo_next;
+            lo_next = t2;
             if (z < z1) {
-                rebuild_plane(cur, m, stride, np, z + 1);
+                rebuild_mid_up(mid, lo_next, m + (size_t)(z + 1) * np, stride, np);
             }
         }
     }

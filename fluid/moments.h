@@ -35,14 +35,10 @@
 
 struct spheres_s;
 
-/* The kernel's copies per thread, doubles per cell of a plane: the 14
- * populations with c_z >= 0 of two planes, the 5 with c_z = -1 of one and
- * the 10 moments of one (kernel_moments.c). */
-enum {
-    MOMENTS_PLANE_POPS = 14,
-    MOMENTS_PLANE_DOWN = 5,
-    MOMENTS_PLANE_DOUBLES = 2 * MOMENTS_PLANE_POPS + MOMENTS_PLANE_DOWN + MOM_N
-};
+/* The kernel's copies per thread, doubles per cell of a plane: the 5
+ * populations with c_z = +1 of two planes, the 9 with c_z = 0 of one and
+ * the 5 with c_z = -1 of two (kernel_moments.c). */
+enum { MOMENTS_PLANE_DOUBLES = 5 + 5 + 9 + 5 + 5 };
 
 typedef struct {
     double *m;       /* MOM_N * stride */

@@ -521,14 +521,14 @@ def test_bench_json(coupler):
     by = {(r["streaming"], r["precision"]): r["bytes_per_cell"] for r in rows if r["streaming"] != "moments"}
     assert set(by) == {(s, p) for s in ("in_place", "two_array") for p in ("double", "single")}
     # the moments layout: 10 doubles per allocated cell (stride as above), a 4-byte index, 19
-    # doubles per ghost cell (26^3 - 24^3 of them) and 43 doubles per plane cell and thread (the
+    # doubles per ghost cell (26^3 - 24^3 of them) and 29 doubles per plane cell and thread (the
     # kernel's copies: fluid/moments.h MOMENTS_PLANE_DOUBLES)
     mom = [r for r in rows if r["streaming"] == "moments"]
     assert mom and all(r["precision"] == "double" for r in mom)
     for r in mom:
         ncells = 26 * 26 * 26
         stride = ncells + (512 + 24 - ncells % 512) % 512
-        want = (10 * 8 * stride + 4 * ncells + 152 * (ncells - 24**3) + 43 * 8 * 26 * 26 * r["threads"]
+        want = (10 * 8 * stride + 4 * ncells + 152 * (ncells - 24**3) + 29 * 8 * 26 * 26 * r["threads"]
                 + 26 * 26 + ncells / 2) / 24**3
         assert r["bytes_per_cell"] == pytest.approx(want, rel=0.005), r
     for (s, p), b in by.items():
