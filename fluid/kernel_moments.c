@@ -123,6 +123,8 @@ static const signed char MID_SLOT[LB_Q] = {0, 1, 2, -1, 3, 4, -1, -1, -1, -1, 5,
 static const signed char UP_SLOT[LB_Q] = {-1, -1, -1, 0, -1, -1, 1, -1, 2, -1, -1, -1, -1, -1, -1, -1, 3, -1, 4};
 static const signed char DOWN_SLOT[LB_Q] = {-1, -1, -1, -1, -1, -1, -1, 0, -1, 1, -1, -1, 2, -1, -1, 3, -1, 4, -1};
 
+/* (Everything here inlined into the kernel's entry: the FMU's baseline
+ * build must hold AVX code only under the _v3 names, test_fmu.) */
 /* The populations of the set slot[] (MID_SLOT, UP_SLOT or DOWN_SLOT) of
  * every cell of a plane whose moments are at src (moment k at k n), into
  * buf (slot s of plane cell pi at s np + pi); with mid != NULL also those
@@ -145,18 +147,18 @@ static inline __attribute__((always_inline)) void rebuild_set(double *restrict b
     }
 }
 
-static void rebuild_up(double *up, const double *src, size_t n, size_t np)
+static inline __attribute__((always_inline)) void rebuild_up(double *up, const double *src, size_t n, size_t np)
 {
     rebuild_set(up, UP_SLOT, NULL, src, n, np);
 }
 
-static void rebuild_down(double *down, const double *src, size_t n, size_t np)
+static inline __attribute__((always_inline)) void rebuild_down(double *down, const double *src, size_t n, size_t np)
 {
     rebuild_set(down, DOWN_SLOT, NULL, src, n, np);
 }
 
 /* a plane's own (c_z = 0) and upward (c_z = +1) populations */
-static void rebuild_mid_up(double *mid, double *up, const double *src, size_t n, size_t np)
+static inline __attribute__((always_inline)) void rebuild_mid_up(double *mid, double *up, const double *src, size_t n, size_t np)
 {
     rebuild_set(up, UP_SLOT, mid, src, n, np);
 }
