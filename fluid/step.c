@@ -16,7 +16,6 @@
  * what pays depends on the machine, the threads and the scene. */
 #include "fluid_internal.h"
 
-#include <assert.h>
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
@@ -28,7 +27,7 @@ static void update(fluid_t *fl, const kernel_box_t *b, int skip)
 {
     kernel_params_t kp = fl->kp;
     kp.skip = skip && fl->skip_on && fl->skip.map == fl->spheres.maps ? &fl->skip : NULL;
-    assert(fl->streaming != STREAMING_MOMENTS); /* its own update over whole planes: fluid_step */
+    /* (never with the moments layout: its own update over whole planes, fluid_step) */
     if (fl->streaming == STREAMING_TWO_ARRAY) {
         if (fl->single) {
             kernel_stream_collide_f32(&fl->g, &kp, fl->f[fl->cur], fl->f[1 - fl->cur], b);
