@@ -79,7 +79,12 @@ static status_t trouble_report(const fluid_t *fl, double key, double mach_limit)
         const double umag = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]), dx = fl->units.dx;
         /* the lattice velocity of a given flow is U dt / dx = U (tau - 1/2) dx / (3 nu): a smaller tau
          * or a smaller dx lowers it, but near tau = 1/2 a smaller tau makes the lattice less stable */
-        const char *remedy = cause == TROUBLE_MACH
+        /* faster than the lattice's speed of sound c_s no flow is meant
+         * (fluid.mach_limit is at most 1): the lattice has become unstable
+         * (a lid-driven cavity at tau 0.5001 runs away in a corner cell's
+         * velocity before any density goes negative) */
+        const int supersonic = cause == TROUBLE_MACH && umag > sqrt(LB_CS2);
+        const char *remedy = cause == TROUBLE_MACH && !supersonic
                                  ? (fl->units.tau >= 0.55
                                         ? "lower the flow speed in lattice units: a smaller time step (fluid.tau "
                                           "closer to 0.5, or fluid.dt), more cells (fluid.dx), or slower walls, "
