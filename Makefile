@@ -32,7 +32,7 @@ SCENE    ?= models/sinking_sphere.yaml
 
 COMMON_SRC  := common/status.c common/initial_profile.c common/scene.c common/scene_schema.c common/scene_report.c common/scene_override.c \
                common/scene_build.c common/scene_check.c common/coupling.c common/big_alloc.c common/file_held.c
-FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/kernel.c fluid/kernel_single.c fluid/walls.c fluid/units.c fluid/boundary.c fluid/refill.c \
+FLUID_SRC   := fluid/decomp.c fluid/sphere_halo.c fluid/kernel.c fluid/kernel_single.c fluid/walls.c fluid/walls_build.c fluid/units.c fluid/boundary.c fluid/refill.c \
                fluid/spheres.c fluid/sphere_links.c fluid/sphere_others.c fluid/sphere_fill.c fluid/state.c fluid/fluid.c fluid/step.c fluid/kernel_skip.c fluid/diagnostics.c fluid/scan.c \
                fluid/moments.c fluid/kernel_moments.c
 RIGID_SRC   := rigid/rigid.c rigid/rigid_config.c rigid/implicit.c rigid/body.c rigid/forces.c rigid/contact.c \

@@ -322,10 +322,10 @@ static double moving_box(int turn, const double vx[3], const double vy[3], const
  * turned x <-> z gave another flow: 5.2e-3 off after 30 steps at Lambda
  * 3/16 (4.6e-3 at 1/4) with walls at 0.01-0.02, and another mass (-6.54e-4
  * and -3.03e-4 of it). Such a link now takes the mean of the walls'
- * velocities (walls.c walls_build): the field is turned to 8.9e-16. The
+ * velocities (walls_build.c walls_build): the field is turned to 8.9e-16. The
  * walls move along themselves and let no mass through: the terms of an
  * edge cell's links, which came from walls of different velocities and did
- * not cancel, are balanced (walls.c balance_cell): -4.79e-4 of the mass in
+ * not cancel, are balanced (walls_build.c balance_cell): -4.79e-4 of the mass in
  * 30 steps before, -2e-15 now. */
 static void test_moving_box_turned(void)
 {
@@ -730,7 +730,7 @@ static double uniform_inlet_flux(collision_t op, double magic, int ny, int nz)
  * the edge received 5/6 of rho U, so 16 cells across delivered
  * 1 - 2/(6 16) = 0.97917 of rho U H (measured 0.97907 TRT, 0.97904 BGK;
  * a 10 x 8 duct 0.92473, edges on four sides and corners). Now such a link
- * takes the inlet's velocity (walls.c walls_build) and stays the wall's
+ * takes the inlet's velocity (walls_build.c walls_build) and stays the wall's
  * otherwise: the delivered flux is rho U A to 1e-13 across the plane
  * channel, 7e-10 in the duct (not quite steady). The parabolic inlet is 0
  * where the link crosses the wall, as before. Lambda 3/16: elsewhere the

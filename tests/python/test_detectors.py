@@ -81,7 +81,7 @@ def test_blow_up_stops_at_nan_or_negative_density(coupler, tmp_path):
     100 steps. The Mach limit is raised to 1 so that what is found is the blow-up, not the
     flow's speed: a density gone negative or non-finite, or a corner cell running away faster
     than the lattice's speed of sound (what it does since the edges of the lid keep the mass,
-    walls.c balance_cell), each reported as an unstable lattice with fluid.tau as the remedy;
+    walls_build.c balance_cell), each reported as an unstable lattice with fluid.tau as the remedy;
     the totals read at every output row (every 10 steps) check every cell, so the run stops at
     the first row after the blow-up, before a NaN is written."""
     scene = tmp_path / "blowup.yaml"

@@ -305,7 +305,7 @@ def test_pinched_cells_across_a_periodic_face(tmp_path):
     own population while the sphere's link sent back the pair's mean: mass
     drifted by 2.1e-7 in 150 steps of bounce-back at rest (1.2e-14 with 2
     ranks along x, whose ghosts are flagged). The link now reads the image
-    (walls.c walls_build, ghost_link_t.cell3): mass kept, 1 rank equal to 2
+    (walls_build.c walls_build, ghost_link_t.cell3): mass kept, 1 rank equal to 2
     bit for bit."""
     outs = run_ranks(tmp_path, PINCHED_PERIODIC, "pinched_periodic", ranks=(1, 2), sets=["run.ranks=[2, 1, 1]"])
     for out in outs:
