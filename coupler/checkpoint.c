@@ -164,8 +164,7 @@ static int get_long(hid_t obj, const char *name, long *v)
     return ok;
 }
 
-/* values per chunk of an array: a chunk's checksum covers at most this many */
-#define ARRAY_CHUNK ((hsize_t)1 << 22)
+#define ARRAY_CHUNK ((hsize_t)CHECKPOINT_CHUNK)
 
 /* A 1-D dataset of n values, in chunks that HDF5 checksums (Fletcher-32
  * filter): a read of a damaged chunk fails (get_array) instead of handing

@@ -32,6 +32,10 @@
 #include <stddef.h>
 
 #define CHECKPOINT_ID_MAX 160
+/* values per chunk of an array in a checkpoint: a chunk's checksum covers at
+ * most this many, and a state's last chunk is allocated whole (the disk
+ * estimate, resources.c) */
+#define CHECKPOINT_CHUNK (1 << 22)
 
 /* What a checkpoint belongs to; every field must match on restart. */
 typedef struct {

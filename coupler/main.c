@@ -221,12 +221,14 @@ static int cmd_check(const scene_t *s, int world, const log_t *log)
            s->fluid.streaming == STREAMING_MOMENTS ? ", the side store of 19 doubles per ghost cell and per cell "
                                                      "inside a sphere, and the kernel's plane copies"
                                                    : "");
-    resources_need_t need;
-    if (resources_need(s, (double)a.steps * u.dt, 0, log, &need) == STATUS_OK) {
+    resources_need_t need, with_cp;
+    if (resources_need(s, (double)a.steps * u.dt, 0, log, &need) == STATUS_OK &&
+        resources_need(s, (double)a.steps * u.dt, 1, log, &with_cp) == STATUS_OK) {
+        /* a checkpoint as a run with --checkpoint-every counts it (the
+         * moments layout's side store included) */
         printf("  run needs          %.4g MB of memory; %.4g MB on disk (output %.4g MB, field snapshots %.4g MB), "
                "a checkpoint %.4g MB more\n",
-               need.memory / 1e6, need.disk / 1e6, need.output / 1e6, need.fields / 1e6,
-               (need.grid_cells * units_bytes_per_cell(s) + need.output) / 1e6); /* (moments: the side store not counted) */
+               need.memory / 1e6, need.disk / 1e6, need.output / 1e6, need.fields / 1e6, with_cp.checkpoint / 1e6);
         /* the default output goes to the current folder */
         resources_compare(&need, ".", STATUS_WARNING, log);
     }

@@ -5,6 +5,7 @@
 #include "resources.h"
 
 #include "../common/h5fields.h"
+#include "checkpoint.h"
 #include "output.h"
 
 #include "../fluid/grid.h"
@@ -37,6 +38,9 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
     need->grid_cells = (double)g.ncells;
     need->cell_bytes = units_bytes_per_cell(s);
     const double grid = need->grid_cells * need->cell_bytes + units_extra_bytes(s, &g, omp_get_max_threads());
+    /* what a state holds of it (the moments layout's side store, not its
+     * kernel's plane copies per thread) */
+    const double state = need->grid_cells * need->cell_bytes + units_extra_bytes(s, &g, 0);
     const double slab = (double)u.n[0] * u.n[1] * h5fields_slab_planes(u.n[0], u.n[1], u.n[2]);
     need->memory = grid + (s->run.fields ? slab * FIELD_BYTES_PER_CELL : 0.0); /* buffers only with fields */
     /* the time series as the run lays them out (run.c): connections and
@@ -54,11 +58,11 @@ status_t resources_need(const scene_t *s, double t_end, int checkpoints, const l
     if (checkpoints) {
         /* the serialized fluid state: the population array(s) and the flags,
          * plus a copy of the output rows */
-        need->checkpoint = grid + need->output;
+        need->checkpoint = ceil(state / CHECKPOINT_CHUNK) * CHECKPOINT_CHUNK + need->output;
         /* while a checkpoint is written its serialized bytes are held beside
          * the grid (the FMU state itself copies no populations: it stays the
          * component until the component changes, common/fmi_state.c) */
-        need->memory += grid;
+        need->memory += state;
     }
     need->disk = need->output + need->fields + 2.0 * need->checkpoint;
     return STATUS_OK;
