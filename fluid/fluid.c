@@ -229,6 +229,16 @@ status_t fluid_create(const scene_t *scene, const log_t *log, fluid_t **out)
     if (have && fl->streaming == STREAMING_MOMENTS) {
         have = moments_create(&fl->mom, &fl->g);
     }
+    if (!have && fl->streaming == STREAMING_MOMENTS) {
+        log_msg(log, STATUS_ERROR, "fluid",
+                "%s: out of memory for the moments, side store and flags of %d x %d x %d cells (%.4g GB: %d moments "
+                "of %.4g GB, the side store of the ghost layers and the flags)",
+                fl->path, fl->g.n[0], fl->g.n[1], fl->g.n[2],
+                ((double)fl->g.ncells * units_bytes_per_cell(scene) + units_extra_bytes(scene, &fl->g, 0)) / 1e9,
+                MOM_N, (double)fl->g.ncells * MOM_N * sizeof(double) / 1e9);
+        fluid_free(fl);
+        return STATUS_ERROR;
+    }
     if (!have) {
         log_msg(log, STATUS_ERROR, "fluid",
                 "%s: out of memory for the populations and flags of %d x %d x %d cells (%.4g GB: %d array(s) of "

@@ -95,8 +95,10 @@ def test_check_counts_the_output_file_it_writes(coupler, tmp_path, scene, sets):
     assert size <= est < 1.02 * size, (est, size)
 
 
-def test_fmu_names_the_failed_allocation(coupler, tmp_path, capfd):
-    p = run("export", SCENE, "--set", HUGE, "-d", tmp_path)
+def failed_allocation_log(tmp_path, capfd, *sets):
+    """The messages of the fluid FMU of the huge scene (with `sets`) under fmpy, whose
+    initialization must fail."""
+    p = run("export", SCENE, "--set", HUGE, *sets, "-d", tmp_path)
     assert p.returncode == 0, p.stderr
     unzipped = extract(str(tmp_path / "fluid.fmu"))
     md = read_model_description(unzipped)
@@ -112,11 +114,23 @@ def test_fmu_names_the_failed_allocation(coupler, tmp_path, capfd):
     finally:
         fmu.freeInstance()
     assert failed, "a grid of 2e17 cells was allocated"
-    log = capfd.readouterr().out
+    return capfd.readouterr().out
+
+
+def test_fmu_names_the_failed_allocation(coupler, tmp_path, capfd):
+    log = failed_allocation_log(tmp_path, capfd)
     # what (the populations and flags of the grid) and how much
     assert "out of memory for the populations and flags of 600000 x 600000 x 600000 cells" in log, log
     # 2.16e17 cells of 152.5 bytes (one in-place array of doubles and the flags): 3.3e10 GB
     assert re.search(r"\(3\.[0-9]+e\+10 GB: 1 array", log), log
+
+
+def test_fmu_names_the_failed_allocation_of_the_moments_layout(coupler, tmp_path, capfd):
+    """The moments layout's message names its store (it said "0 array(s) of 1.6e+10 GB")."""
+    log = failed_allocation_log(tmp_path, capfd, "--set", "fluid.streaming=moments")
+    assert "out of memory for the moments, side store and flags of 600000 x 600000 x 600000 cells" in log, log
+    # 2.16e17 cells of 84.5 bytes (10 doubles, the index, the flags) and the ghost layers' side store
+    assert re.search(r"\(1\.8[0-9]*e\+10 GB: 10 moments of 1\.7[0-9]*e\+10 GB", log), log
 
 
 def test_moments_layout_fits_three_agglomerates_in_320_mb(coupler):
